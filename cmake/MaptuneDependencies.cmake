@@ -1,0 +1,16 @@
+# Dependencies shared by several targets. Heavy ones (PCL, OctoMap, Fast DDS, CHOLMOD) are
+# found in the one library folder that uses them.
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(yaml-cpp REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(SQLite3 REQUIRED)
+find_package(Protobuf REQUIRED)
+find_package(Threads REQUIRED)
+if(MAPTUNE_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(MAPTUNE_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

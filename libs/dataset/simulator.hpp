@@ -1,0 +1,75 @@
+#pragma once
+// Rover simulator: deterministic worlds (moon-like terrain, lab with rocks), a rover with a
+// stereo camera on a pan-tilt unit, drifting odometry, and submaps built like on the DLR
+// LRU (SPEC §4). Model and constants: docs/datasets.md.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace maptune::dataset {
+
+struct SimConfig {
+    std::string world = "lab";      // lab | moon
+    int runs = 13;
+    int submaps = 15;               // per run
+    std::uint64_t seed = 1;
+    double world_size = 8.0;        // side of the square world [m]
+    int rocks = 0;                  // 0 = world default (lab: 15..30, moon: ~90)
+    int craters = 60;               // moon only
+
+    // Camera: a stereo pair (baseline_m) on a pan-tilt unit at camera_height_m. Rays are
+    // cast on a subsampled image; the noise uses the real camera's focal length.
+    int image_width = 112, image_height = 84;
+    double hfov_deg = 64, vfov_deg = 48;
+    double baseline_m = 0.09;
+    double focal_px = 900;          // of the full-resolution camera, for stereo noise
+    double disparity_sigma_px = 0.25;
+    double camera_height_m = 1.0;
+    double tilt_deg = -28;
+    std::vector<double> pan_sweep_deg = {-60, -30, 0, 30, 60, 30, 0, -30};
+    double max_range_m = 5.0;
+    double hole_probability = 0.03; // random missing pixels; textureless patches add more
+
+    // Rover and submaps.
+    double frame_step_m = 0.1;      // distance driven between frames
+    double submap_distance_m = 1.2; // new submap after this distance...
+    double submap_sigma_m = 0.06;   // ...or when the predicted odometry std exceeds this
+    double voxel_m = 0.04;          // cloud resolution
+    double octomap_resolution_m = 0.05;
+    int octomap_pixel_stride = 2;   // rays used for the OctoMap: every n-th pixel in u and v
+
+    // Odometry noise: std grows with sqrt(distance); multiplied by (1 + 2 |slope|).
+    double sigma_x = 0.03;          // [m/sqrt(m)]
+    double sigma_y = 0.02;          // [m/sqrt(m)]
+    double sigma_yaw = 0.012;       // [rad/sqrt(m)]
+    double sigma_roll_pitch = 0.002;  // [rad/sqrt(m)]
+    double scale_bias_sigma = 0.01; // per-run wheel scale error (systematic)
+
+    int threads = 0;                // 0 = hardware concurrency; output does not depend on it
+};
+
+// Presets "lab" (13 runs x 15 submaps) and "moon" (40 x 40); "lab-tiny" and "moon-tiny"
+// for tests. Throws std::invalid_argument naming the preset when unknown.
+SimConfig sim_preset(const std::string& name);
+std::vector<std::string> sim_preset_names();
+
+struct GenerateProgress {
+    int runs_done = 0, runs_total = 0;
+};
+// Writes the dataset to `out` (atomically: temp dir, then rename); returns its id.
+std::string generate_dataset(const SimConfig& config, const std::filesystem::path& out,
+                             bool overwrite = false,
+                             const std::function<void(const GenerateProgress&)>& progress = {});
+
+// Top-down height map (row-major, ny rows of nx, metres) of the world, for plots.
+struct HeightMapImage {
+    int nx = 0, ny = 0;
+    double x0 = 0, y0 = 0, resolution = 0;
+    std::vector<float> height;
+};
+HeightMapImage world_height_map(const SimConfig& config, double resolution);
+
+}  // namespace maptune::dataset

@@ -1,0 +1,127 @@
+#include "gp/cholesky.hpp"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <stdexcept>
+
+namespace maptune::gp {
+
+std::unique_ptr<Cholesky> make_cholmod_cholesky();  // cholmod_cholesky.cpp
+
+std::string to_string(CholeskyBackend backend) {
+    return backend == CholeskyBackend::eigen ? "eigen" : "cholmod";
+}
+
+bool cholmod_available() {
+#ifdef MAPTUNE_GP_HAVE_CHOLMOD
+    return true;
+#else
+    return false;
+#endif
+}
+
+std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend) {
+    if (backend == CholeskyBackend::cholmod) {
+#ifdef MAPTUNE_GP_HAVE_CHOLMOD
+        return make_cholmod_cholesky();
+#else
+        throw std::invalid_argument("maptune_gp was built without CHOLMOD");
+#endif
+    }
+    return std::make_unique<EigenCholesky>();
+}
+
+Eigen::MatrixXd Cholesky::inverse() const {
+    return solve(Eigen::MatrixXd::Identity(size(), size()));
+}
+
+std::unique_ptr<Cholesky> EigenCholesky::clone() const {
+    return std::make_unique<EigenCholesky>(*this);
+}
+
+void EigenCholesky::reserve(Eigen::Index n) {
+    if (n <= l_.rows()) return;
+    // Geometric growth keeps appends amortized O(n²).
+    const Eigen::Index cap = std::max<Eigen::Index>(n, 2 * l_.rows());
+    Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(cap, cap);
+    grown.topLeftCorner(n_, n_) = l_.topLeftCorner(n_, n_);
+    l_.swap(grown);
+}
+
+bool EigenCholesky::compute(const Eigen::MatrixXd& a) {
+    n_ = 0;
+    Eigen::LLT<Eigen::MatrixXd> llt(a);
+    if (llt.info() != Eigen::Success) return false;
+    reserve(a.rows());
+    n_ = a.rows();
+    l_.topLeftCorner(n_, n_) = llt.matrixL();
+    return true;
+}
+
+bool EigenCholesky::append(const Eigen::VectorXd& cross, double diag) {
+    Eigen::VectorXd row = cross;
+    if (n_ > 0) lower().solveInPlace(row);
+    const double d2 = diag - row.squaredNorm();
+    if (!(d2 > 0.0)) return false;
+    reserve(n_ + 1);
+    l_.row(n_).head(n_) = row.transpose();
+    l_(n_, n_) = std::sqrt(d2);
+    ++n_;
+    return true;
+}
+
+void EigenCholesky::truncate(Eigen::Index n) { n_ = std::min(n, n_); }
+
+Eigen::MatrixXd EigenCholesky::solve_lower(const Eigen::MatrixXd& b) const {
+    Eigen::MatrixXd x = b;
+    lower().solveInPlace(x);
+    return x;
+}
+
+Eigen::MatrixXd EigenCholesky::solve(const Eigen::MatrixXd& b) const {
+    Eigen::MatrixXd x = b;
+    lower().solveInPlace(x);
+    l_.topLeftCorner(n_, n_).transpose().triangularView<Eigen::Upper>().solveInPlace(x);
+    return x;
+}
+
+Eigen::MatrixXd EigenCholesky::inverse() const {
+    // A⁻¹ = L⁻ᵀ L⁻¹: one triangular inverse plus a symmetric product, cheaper than two solves.
+    Eigen::MatrixXd linv = Eigen::MatrixXd::Identity(n_, n_);
+    lower().solveInPlace(linv);
+    Eigen::MatrixXd inv = Eigen::MatrixXd::Zero(n_, n_);
+    inv.selfadjointView<Eigen::Lower>().rankUpdate(linv.transpose());
+    return inv.selfadjointView<Eigen::Lower>();
+}
+
+double EigenCholesky::log_det() const {
+    return 2.0 * l_.topLeftCorner(n_, n_).diagonal().array().log().sum();
+}
+
+bool EigenCholesky::rank_update(const Eigen::VectorXd& v, double sigma) {
+    // Classic O(n²) column sweep on L (Golub & Van Loan); a failed downdate leaves L intact.
+    const Eigen::MatrixXd backup = l_.topLeftCorner(n_, n_);
+    Eigen::VectorXd w = v;
+    for (Eigen::Index k = 0; k < n_; ++k) {
+        const double lkk = l_(k, k);
+        const double r2 = lkk * lkk + sigma * w(k) * w(k);
+        if (!(r2 > 0.0)) {
+            l_.topLeftCorner(n_, n_) = backup;
+            return false;
+        }
+        const double r = std::sqrt(r2);
+        const double c = r / lkk;
+        const double s = w(k) / lkk;
+        l_(k, k) = r;
+        const Eigen::Index rest = n_ - k - 1;
+        if (rest > 0) {
+            auto col = l_.col(k).segment(k + 1, rest);
+            auto tail = w.segment(k + 1, rest);
+            col = (col + sigma * s * tail) / c;
+            tail = c * tail - s * col;
+        }
+    }
+    return true;
+}
+
+}  // namespace maptune::gp

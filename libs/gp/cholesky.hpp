@@ -1,0 +1,65 @@
+#pragma once
+// Cholesky factorization A = L Lᵀ of a GP covariance matrix behind one interface, so the
+// dense Eigen backend and the SuiteSparse CHOLMOD backend can be swapped and benchmarked.
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+namespace maptune::gp {
+
+enum class CholeskyBackend {
+    eigen,    // Eigen LLT on a growable buffer; O(n²) append, O(1) truncate (default)
+    cholmod,  // SuiteSparse CHOLMOD supernodal; refactorizes on append (see docs/optimizer.md)
+};
+
+std::string to_string(CholeskyBackend backend);
+bool cholmod_available();
+
+class Cholesky {
+public:
+    virtual ~Cholesky() = default;
+    virtual std::unique_ptr<Cholesky> clone() const = 0;
+
+    // Factorizes the symmetric matrix a (its lower triangle is read). False if not positive
+    // definite; the factor is then empty.
+    virtual bool compute(const Eigen::MatrixXd& a) = 0;
+    // Grows A by one row/column: cross = A(new, old), diag = A(new, new). False (and no
+    // change) if the result is not positive definite.
+    virtual bool append(const Eigen::VectorXd& cross, double diag) = 0;
+    // Keeps the leading n×n block: its factor is the leading block of L (a downdate of the
+    // trailing points, used to drop fantasized pending points).
+    virtual void truncate(Eigen::Index n) = 0;
+
+    virtual Eigen::Index size() const = 0;
+    virtual Eigen::MatrixXd solve_lower(const Eigen::MatrixXd& b) const = 0;  // L⁻¹ b
+    virtual Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const = 0;        // A⁻¹ b
+    virtual Eigen::MatrixXd inverse() const;                                  // A⁻¹
+    virtual double log_det() const = 0;                                       // log |A|
+};
+
+std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend);
+
+class EigenCholesky final : public Cholesky {
+public:
+    std::unique_ptr<Cholesky> clone() const override;
+    bool compute(const Eigen::MatrixXd& a) override;
+    bool append(const Eigen::VectorXd& cross, double diag) override;
+    void truncate(Eigen::Index n) override;
+    Eigen::Index size() const override { return n_; }
+    Eigen::MatrixXd solve_lower(const Eigen::MatrixXd& b) const override;
+    Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const override;
+    Eigen::MatrixXd inverse() const override;
+    double log_det() const override;
+    // Rank-1 update (sigma = +1) or downdate (sigma = -1) of A ± v vᵀ in O(n²).
+    bool rank_update(const Eigen::VectorXd& v, double sigma);
+
+private:
+    void reserve(Eigen::Index n);
+    auto lower() const { return l_.topLeftCorner(n_, n_).triangularView<Eigen::Lower>(); }
+
+    Eigen::MatrixXd l_;  // capacity × capacity; only the leading n_ × n_ lower block is valid
+    Eigen::Index n_ = 0;
+};
+
+}  // namespace maptune::gp

@@ -1,0 +1,359 @@
+#include "gp/gaussian_process.hpp"
+
+#include <LBFGSB.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+namespace maptune::gp {
+
+namespace {
+
+const double kSqrt5 = std::sqrt(5.0);
+const double kLog2Pi = std::log(2.0 * M_PI);
+
+// Priors in log space: mean and standard deviation of a normal on log(value).
+const double kLengthScalePriorSd = std::sqrt(3.0);
+const double kSignalPriorMean = 0.0;  // standardized outputs: signal variance near 1
+const double kSignalPriorSd = 1.5;
+const double kNoisePriorMean = std::log(1e-4);  // near-deterministic objectives are common
+const double kNoisePriorSd = 3.0;
+
+const double kMaxJitter = 1e-2;
+
+struct Bounds {
+    Eigen::VectorXd lower, upper;
+};
+
+Bounds log_bounds(int dim, const FitOptions& o) {
+    Bounds b{Eigen::VectorXd(dim + 2), Eigen::VectorXd(dim + 2)};
+    b.lower.head(dim).setConstant(std::log(o.min_length_scale));
+    b.upper.head(dim).setConstant(std::log(o.max_length_scale));
+    b.lower(dim) = std::log(o.min_signal_variance);
+    b.upper(dim) = std::log(o.max_signal_variance);
+    b.lower(dim + 1) = std::log(o.min_noise_variance);
+    b.upper(dim + 1) = std::log(o.max_noise_variance);
+    return b;
+}
+
+double add_prior(const Eigen::VectorXd& theta, int dim, Eigen::VectorXd* grad) {
+    double nlp = 0.0;
+    auto term = [&](Eigen::Index i, double mean, double sd) {
+        const double z = (theta(i) - mean) / sd;
+        nlp += 0.5 * z * z;
+        if (grad != nullptr) (*grad)(i) += z / sd;
+    };
+    const double ls_mean = length_scale_prior_mean(dim);
+    for (int j = 0; j < dim; ++j) term(j, ls_mean, kLengthScalePriorSd);
+    term(dim, kSignalPriorMean, kSignalPriorSd);
+    term(dim + 1, kNoisePriorMean, kNoisePriorSd);
+    return nlp;
+}
+
+// Wraps the objective for LBFGSpp and remembers the best point seen, because the line search
+// may throw after having evaluated good points.
+struct Objective {
+    const Eigen::MatrixXd& x;
+    const Eigen::VectorXd& y;
+    const FitOptions& options;
+    CholeskyBackend backend;
+    int evaluations = 0;
+    double best_value = std::numeric_limits<double>::infinity();
+    Eigen::VectorXd best_theta;
+
+    double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& grad) {
+        ++evaluations;
+        const double value = neg_log_posterior(x, y, theta, options, &grad, backend);
+        if (value < best_value) {
+            best_value = value;
+            best_theta = theta;
+        }
+        return value;
+    }
+};
+
+}  // namespace
+
+double length_scale_prior_mean(int dim) {
+    return std::sqrt(2.0) + 0.5 * std::log(static_cast<double>(dim));
+}
+
+double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                         const Eigen::VectorXd& theta, const FitOptions& options,
+                         Eigen::VectorXd* grad, CholeskyBackend backend) {
+    const auto dim = static_cast<int>(x.rows());
+    const Eigen::Index n = x.cols();
+    const Hyperparameters hp = Hyperparameters::from_log(theta);
+    if (grad != nullptr) grad->setZero(theta.size());
+
+    const Eigen::ArrayXd inv_l = hp.length_scales.array().inverse();
+    const Eigen::MatrixXd z = (x.array().colwise() * inv_l).matrix();  // scaled inputs d×n
+    Eigen::MatrixXd r2 = scaled_sq_dist(x, x, hp.length_scales);
+    r2.diagonal().setZero();
+    const Eigen::ArrayXXd s5r = kSqrt5 * r2.array().sqrt();
+    const Eigen::ArrayXXd e = (-s5r).exp();
+    const Eigen::MatrixXd kf = (hp.signal_variance * (1.0 + s5r + s5r.square() / 3.0) * e).matrix();
+    Eigen::MatrixXd k = kf;
+    k.diagonal().array() += hp.noise_variance;
+
+    auto chol = make_cholesky(backend);
+    if (!chol->compute(k)) {
+        // Not positive definite: a wall the line search backs away from.
+        return 1e25;
+    }
+    const Eigen::VectorXd alpha = chol->solve(y);
+    double value = 0.5 * y.dot(alpha) + 0.5 * chol->log_det() + 0.5 * static_cast<double>(n) * kLog2Pi;
+
+    if (grad != nullptr) {
+        // d log p / dθ = ½ tr((ααᵀ − K⁻¹) dK/dθ); W = ααᵀ − K⁻¹.
+        Eigen::MatrixXd w = chol->inverse();
+        w = alpha * alpha.transpose() - w;
+        // Length scales: dK/dlog l_j = Q ∘ D_j, Q = s² (5/3)(1 + √5 r) e^{−√5 r},
+        // D_j = (z_j,a − z_j,b)²; the sum over D_j reduces to one n×n×d product.
+        const Eigen::MatrixXd m =
+            (w.array() * (hp.signal_variance * (5.0 / 3.0) * (1.0 + s5r) * e)).matrix();
+        const Eigen::VectorXd row_sums = m.rowwise().sum();
+        const Eigen::MatrixXd mz = m * z.transpose();  // n×d
+        for (int j = 0; j < dim; ++j) {
+            const double g = z.row(j).array().square().matrix().dot(row_sums) -
+                             z.row(j).dot(mz.col(j));
+            (*grad)(j) = -g;  // ½ · 2 from the symmetric expansion
+        }
+        (*grad)(dim) = -0.5 * (w.array() * kf.array()).sum();
+        (*grad)(dim + 1) = -0.5 * hp.noise_variance * w.trace();
+    }
+    if (options.use_priors) value += add_prior(theta, dim, grad);
+    return value;
+}
+
+GaussianProcess::GaussianProcess(int dim, GpOptions options)
+    : dim_(dim),
+      options_(options),
+      hp_(Hyperparameters::defaults(dim)),
+      x_(dim, 0),
+      chol_(make_cholesky(options.backend)) {}
+
+GaussianProcess::GaussianProcess(const GaussianProcess& other)
+    : dim_(other.dim_),
+      options_(other.options_),
+      hp_(other.hp_),
+      x_(other.x_),
+      y_(other.y_),
+      alpha_(other.alpha_),
+      y_offset_(other.y_offset_),
+      y_scale_(other.y_scale_),
+      jitter_(other.jitter_),
+      chol_(other.chol_->clone()) {}
+
+GaussianProcess& GaussianProcess::operator=(const GaussianProcess& other) {
+    if (this != &other) *this = GaussianProcess(other);
+    return *this;
+}
+
+bool GaussianProcess::set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y) {
+    if (x.rows() != dim_ || x.cols() != y.size()) {
+        throw std::invalid_argument("GaussianProcess::set_data: shape mismatch");
+    }
+    x_ = x;
+    const Eigen::Index n = y.size();
+    if (options_.mean == MeanKind::constant) {
+        y_offset_ = n > 0 ? y.mean() : 0.0;
+        const double var = n > 1 ? (y.array() - y_offset_).square().sum() / static_cast<double>(n - 1) : 0.0;
+        y_scale_ = var > 1e-24 ? std::sqrt(var) : 1.0;
+    } else {
+        y_offset_ = 0.0;
+        const double ms = n > 0 ? y.squaredNorm() / static_cast<double>(n) : 0.0;
+        y_scale_ = ms > 1e-24 ? std::sqrt(ms) : 1.0;
+    }
+    y_ = (y.array() - y_offset_) / y_scale_;
+    return refactorize();
+}
+
+bool GaussianProcess::set_hyperparameters(const Hyperparameters& hp) {
+    if (hp.length_scales.size() != dim_) {
+        throw std::invalid_argument("GaussianProcess::set_hyperparameters: wrong dimension");
+    }
+    hp_ = hp;
+    return refactorize();
+}
+
+bool GaussianProcess::refactorize() {
+    jitter_ = 0.0;
+    const Eigen::Index n = x_.cols();
+    if (n == 0) {
+        chol_->truncate(0);
+        alpha_.resize(0);
+        return true;
+    }
+    Eigen::MatrixXd k = matern52(x_, x_, hp_);
+    k.diagonal().array() += hp_.noise_variance;
+    double jitter = 1e-10 * hp_.signal_variance;
+    while (!chol_->compute(k)) {
+        if (jitter > kMaxJitter * hp_.signal_variance) return false;
+        k.diagonal().array() += jitter - jitter_;
+        jitter_ = jitter;
+        jitter *= 10.0;
+    }
+    update_alpha();
+    return true;
+}
+
+void GaussianProcess::update_alpha() { alpha_ = chol_->solve(y_); }
+
+bool GaussianProcess::append(const Eigen::VectorXd& x, double y) {
+    const Eigen::Index n = x_.cols();
+    const Eigen::VectorXd cross = matern52(x_, x, hp_).col(0);
+    const double diag = hp_.signal_variance + hp_.noise_variance + jitter_;
+    x_.conservativeResize(Eigen::NoChange, n + 1);
+    x_.col(n) = x;
+    y_.conservativeResize(n + 1);
+    y_(n) = (y - y_offset_) / y_scale_;
+    if (!chol_->append(cross, diag)) return refactorize();
+    update_alpha();
+    return true;
+}
+
+void GaussianProcess::truncate(Eigen::Index n) {
+    if (n >= x_.cols()) return;
+    x_.conservativeResize(Eigen::NoChange, n);
+    y_.conservativeResize(n);
+    chol_->truncate(n);
+    update_alpha();
+}
+
+FitResult GaussianProcess::fit(std::uint64_t seed) {
+    const FitOptions& o = options_.fit;
+    const Eigen::Index n = x_.cols();
+    FitResult result;
+    result.hyperparameters = hp_;
+    if (n < 2) return result;
+
+    std::mt19937_64 rng(seed);
+    // Above max_points each step is O(n³): a random subset estimates the hyperparameters well
+    // at a fraction of the cost; the final model still conditions on all points.
+    Eigen::MatrixXd xs;
+    Eigen::VectorXd ys;
+    if (n > o.max_points) {
+        std::vector<Eigen::Index> idx(static_cast<std::size_t>(n));
+        std::iota(idx.begin(), idx.end(), 0);
+        for (Eigen::Index i = 0; i < o.max_points; ++i) {
+            std::uniform_int_distribution<Eigen::Index> pick(i, n - 1);
+            std::swap(idx[static_cast<std::size_t>(i)], idx[static_cast<std::size_t>(pick(rng))]);
+        }
+        xs.resize(dim_, o.max_points);
+        ys.resize(o.max_points);
+        for (Eigen::Index i = 0; i < o.max_points; ++i) {
+            xs.col(i) = x_.col(idx[static_cast<std::size_t>(i)]);
+            ys(i) = y_(idx[static_cast<std::size_t>(i)]);
+        }
+    } else {
+        xs = x_;
+        ys = y_;
+    }
+    result.points_used = xs.cols();
+
+    const Bounds bounds = log_bounds(dim_, o);
+    std::vector<Eigen::VectorXd> starts;
+    starts.push_back(hp_.to_log());  // warm start: the previous optimum
+    {
+        // A fixed, moderately smooth start independent of history.
+        Hyperparameters h = Hyperparameters::defaults(dim_);
+        h.length_scales.setConstant(0.3 * std::sqrt(static_cast<double>(dim_)));
+        h.noise_variance = 1e-3;
+        starts.push_back(h.to_log());
+    }
+    std::normal_distribution<double> normal(0.0, 1.0);
+    for (int s = 0; s < o.random_starts; ++s) {
+        Eigen::VectorXd t(dim_ + 2);
+        for (int j = 0; j < dim_; ++j) {
+            // Narrower than the prior so that starts land where the data can speak.
+            t(j) = std::log(0.4) + 0.75 * normal(rng);
+        }
+        t(dim_) = kSignalPriorMean + 0.5 * normal(rng);
+        t(dim_ + 1) = std::log(1e-3) + 1.0 * normal(rng);
+        starts.push_back(t);
+    }
+
+    LBFGSpp::LBFGSBParam<double> param;
+    param.max_iterations = o.max_iterations;
+    param.epsilon = 1e-4;
+    param.past = 1;
+    param.delta = 1e-7;
+    param.max_linesearch = 30;
+    LBFGSpp::LBFGSBSolver<double> solver(param);
+
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::VectorXd best_theta = starts.front();
+    for (Eigen::VectorXd theta : starts) {
+        theta = theta.cwiseMax(bounds.lower).cwiseMin(bounds.upper);
+        Objective objective{xs, ys, o, options_.backend};
+        double fx = 0.0;
+        try {
+            solver.minimize(objective, theta, fx, bounds.lower, bounds.upper);
+        } catch (const std::exception&) {
+            // Line-search failures near a flat optimum are common; the best point seen stands.
+        }
+        result.evaluations += objective.evaluations;
+        ++result.starts;
+        if (objective.best_value < best) {
+            best = objective.best_value;
+            best_theta = objective.best_theta;
+        }
+    }
+    result.neg_log_posterior = best;
+    result.hyperparameters = Hyperparameters::from_log(best_theta);
+    if (!set_hyperparameters(result.hyperparameters)) set_hyperparameters(hp_);
+    return result;
+}
+
+void GaussianProcess::predict(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean,
+                              Eigen::VectorXd& variance) const {
+    const Eigen::Index m = xs.cols();
+    mean.resize(m);
+    variance.resize(m);
+    if (x_.cols() == 0) {
+        mean.setConstant(y_offset_);
+        variance.setConstant(hp_.signal_variance * y_scale_ * y_scale_);
+        return;
+    }
+    // Blocks keep the n×block cross-covariance in cache-friendly sizes.
+    const Eigen::Index block = 1024;
+    for (Eigen::Index start = 0; start < m; start += block) {
+        const Eigen::Index len = std::min(block, m - start);
+        const Eigen::MatrixXd kc = matern52(x_, xs.middleCols(start, len), hp_);  // n×len
+        mean.segment(start, len) = kc.transpose() * alpha_;
+        const Eigen::MatrixXd v = chol_->solve_lower(kc);
+        variance.segment(start, len) =
+            (hp_.signal_variance - v.colwise().squaredNorm().array()).max(1e-12 * hp_.signal_variance);
+    }
+    mean = (mean.array() * y_scale_ + y_offset_).matrix();
+    variance *= y_scale_ * y_scale_;
+}
+
+PointPrediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x) const {
+    PointPrediction p;
+    const double s2 = y_scale_ * y_scale_;
+    if (x_.cols() == 0) {
+        p.mean = y_offset_;
+        p.variance = hp_.signal_variance * s2;
+        p.mean_gradient = Eigen::VectorXd::Zero(dim_);
+        p.variance_gradient = Eigen::VectorXd::Zero(dim_);
+        return p;
+    }
+    const Eigen::VectorXd k = matern52(x_, x, hp_).col(0);
+    const Eigen::MatrixXd jac = matern52_input_gradient(x, x_, hp_);  // d×n
+    const Eigen::VectorXd v = chol_->solve_lower(k);
+    const Eigen::VectorXd w = chol_->solve(k);  // K⁻¹ k
+    p.mean = k.dot(alpha_) * y_scale_ + y_offset_;
+    p.mean_gradient = jac * alpha_ * y_scale_;
+    p.variance = std::max(hp_.signal_variance - v.squaredNorm(), 1e-12 * hp_.signal_variance) * s2;
+    p.variance_gradient = -2.0 * (jac * w) * s2;
+    return p;
+}
+
+}  // namespace maptune::gp

@@ -1,0 +1,119 @@
+#pragma once
+// Gaussian-process regression on the unit cube with a Matern-5/2 ARD kernel.
+//
+// Inputs: columns of a d×n matrix in [0, 1]^d (the caller normalizes). Outputs are
+// standardized internally; every prediction is returned in the caller's units. The
+// predictive variance is that of the latent function (observation noise excluded).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+
+#include "gp/cholesky.hpp"
+#include "gp/kernel.hpp"
+
+namespace maptune::gp {
+
+enum class MeanKind {
+    zero,      // prior mean 0 in the caller's units; outputs only scaled
+    constant,  // prior mean = sample mean of the outputs (standardization)
+};
+
+// Hyperparameter fitting: maximum a posteriori in log space by L-BFGS-B, several starts.
+struct FitOptions {
+    int random_starts = 2;     // starts drawn from the prior, in addition to the fixed ones
+    int max_iterations = 60;   // L-BFGS-B iterations per start
+    Eigen::Index max_points = 300;  // fit on a seeded random subset above this (O(n³) per step)
+    bool use_priors = true;    // log-normal priors; false gives plain type-II maximum likelihood
+    // Bounds, in unit-cube units for length scales and standardized units for variances.
+    double min_length_scale = 1e-2;
+    double max_length_scale = 1e2;
+    double min_signal_variance = 1e-2;
+    double max_signal_variance = 1e2;
+    double min_noise_variance = 1e-6;
+    double max_noise_variance = 1.0;
+};
+
+struct GpOptions {
+    MeanKind mean = MeanKind::constant;
+    CholeskyBackend backend = CholeskyBackend::eigen;
+    FitOptions fit;
+};
+
+struct FitResult {
+    Hyperparameters hyperparameters;
+    double neg_log_posterior = 0.0;  // of the (sub)set used for fitting
+    int starts = 0;
+    int evaluations = 0;            // objective+gradient evaluations over all starts
+    Eigen::Index points_used = 0;
+};
+
+struct PointPrediction {
+    double mean = 0.0;
+    double variance = 0.0;
+    Eigen::VectorXd mean_gradient;      // d/dx in unit-cube coordinates
+    Eigen::VectorXd variance_gradient;  // d/dx in unit-cube coordinates
+};
+
+// Negative log marginal likelihood (plus negative log prior when options.use_priors) of
+// standardized outputs y at inputs x (d×n) for log-space hyperparameters theta, with its
+// analytic gradient when grad is not null. Exposed for tests and benchmarks.
+double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                         const Eigen::VectorXd& theta, const FitOptions& options,
+                         Eigen::VectorXd* grad, CholeskyBackend backend = CholeskyBackend::eigen);
+
+// Log-normal prior on length scales, centred at √2 + ½ log d with scale √3 (Hvarfner et al.,
+// "Vanilla Bayesian optimization performs great in high dimensions", 2024).
+double length_scale_prior_mean(int dim);
+
+class GaussianProcess {
+public:
+    explicit GaussianProcess(int dim, GpOptions options = {});
+    GaussianProcess(const GaussianProcess& other);
+    GaussianProcess& operator=(const GaussianProcess& other);
+    GaussianProcess(GaussianProcess&&) noexcept = default;
+    GaussianProcess& operator=(GaussianProcess&&) noexcept = default;
+    ~GaussianProcess() = default;
+
+    int dim() const { return dim_; }
+    Eigen::Index size() const { return x_.cols(); }
+    const Hyperparameters& hyperparameters() const { return hp_; }
+    const GpOptions& options() const { return options_; }
+    double output_offset() const { return y_offset_; }
+    double output_scale() const { return y_scale_; }
+    double jitter() const { return jitter_; }
+
+    // Replaces the data (x: d×n in the unit cube), recomputes the output standardization and
+    // factorizes. False if the covariance could not be factorized even with jitter.
+    bool set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y);
+    bool set_hyperparameters(const Hyperparameters& hp);
+    // Adds one observation in O(n²), keeping hyperparameters and standardization (used for
+    // fantasized pending points and between refits).
+    bool append(const Eigen::VectorXd& x, double y);
+    // Drops trailing observations in O(n²) (solve only): the factor's leading block is kept.
+    void truncate(Eigen::Index n);
+
+    // Fits the hyperparameters (warm-started from the current ones) and refactorizes.
+    FitResult fit(std::uint64_t seed);
+
+    // Posterior mean and latent variance at the columns of xs (d×m), in the caller's units.
+    void predict(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean, Eigen::VectorXd& variance) const;
+    PointPrediction predict_with_gradient(const Eigen::VectorXd& x) const;
+
+private:
+    bool refactorize();
+    void update_alpha();
+
+    int dim_;
+    GpOptions options_;
+    Hyperparameters hp_;
+    Eigen::MatrixXd x_;        // d×n inputs
+    Eigen::VectorXd y_;        // standardized outputs
+    Eigen::VectorXd alpha_;    // K⁻¹ y
+    double y_offset_ = 0.0;
+    double y_scale_ = 1.0;
+    double jitter_ = 0.0;      // added to the diagonal when K is numerically singular
+    std::unique_ptr<Cholesky> chol_;
+};
+
+}  // namespace maptune::gp

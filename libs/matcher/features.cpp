@@ -1,0 +1,386 @@
+// PCL translation unit 1 of 2: per-submap features (SPEC §3 steps 1-6).
+#include "matcher/features.hpp"
+
+#include <octomap/OcTree.h>
+#include <pcl/console/print.h>
+#include <pcl/features/normal_3d.h>
+#include <pcl/features/shot.h>
+#include <pcl/features/shot_lrf.h>
+#include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <unordered_map>
+
+#include "matcher/features_internal.hpp"
+
+namespace maptune::matcher {
+namespace {
+
+using PointT = pcl::PointXYZRGBA;
+using Cloud = pcl::PointCloud<PointT>;
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct VoxelKey {
+    std::int64_t x, y, z;
+    bool operator==(const VoxelKey& o) const { return x == o.x && y == o.y && z == o.z; }
+    bool operator<(const VoxelKey& o) const {
+        return x != o.x ? x < o.x : (y != o.y ? y < o.y : z < o.z);
+    }
+};
+struct VoxelKeyHash {
+    std::size_t operator()(const VoxelKey& k) const {
+        return static_cast<std::size_t>(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
+    }
+};
+
+// Voxel grid with centroids (and mean colour), in key order so the result is deterministic.
+// Own implementation: pcl::VoxelGrid silently returns the input when the grid overflows int32.
+Cloud::Ptr voxelize(const Cloud& in, double leaf) {
+    auto out = Cloud::Ptr(new Cloud);
+    if (!(leaf > 0.0)) {
+        *out = in;
+        return out;
+    }
+    struct Acc {
+        double x = 0, y = 0, z = 0, r = 0, g = 0, b = 0;
+        int n = 0;
+    };
+    std::unordered_map<VoxelKey, Acc, VoxelKeyHash> voxels;
+    voxels.reserve(in.size());
+    const double inv = 1.0 / leaf;
+    for (const auto& p : in.points) {
+        VoxelKey k{static_cast<std::int64_t>(std::floor(p.x * inv)),
+                   static_cast<std::int64_t>(std::floor(p.y * inv)),
+                   static_cast<std::int64_t>(std::floor(p.z * inv))};
+        Acc& a = voxels[k];
+        a.x += p.x, a.y += p.y, a.z += p.z, a.r += p.r, a.g += p.g, a.b += p.b, ++a.n;
+    }
+    std::vector<std::pair<VoxelKey, Acc>> sorted(voxels.begin(), voxels.end());
+    std::sort(sorted.begin(), sorted.end(),
+              [](const auto& l, const auto& r) { return l.first < r.first; });
+    out->reserve(sorted.size());
+    for (const auto& [key, a] : sorted) {
+        PointT p;
+        p.x = static_cast<float>(a.x / a.n);
+        p.y = static_cast<float>(a.y / a.n);
+        p.z = static_cast<float>(a.z / a.n);
+        p.r = static_cast<std::uint8_t>(std::lround(a.r / a.n));
+        p.g = static_cast<std::uint8_t>(std::lround(a.g / a.n));
+        p.b = static_cast<std::uint8_t>(std::lround(a.b / a.n));
+        p.a = 255;
+        out->push_back(p);
+    }
+    return out;
+}
+
+// Fraction of sampled voxels within `radius` of `center` that the octree does not know.
+double unknown_fraction(const octomap::OcTree& tree, const Eigen::Vector3f& center,
+                        const std::vector<Eigen::Vector3f>& offsets) {
+    int unknown = 0;
+    for (const auto& o : offsets) {
+        const Eigen::Vector3f q = center + o;
+        octomap::OcTreeKey key;
+        if (!tree.coordToKeyChecked(octomap::point3d(q.x(), q.y(), q.z()), key) ||
+            tree.search(key) == nullptr) {
+            ++unknown;
+        }
+    }
+    return offsets.empty() ? 0.0 : static_cast<double>(unknown) / offsets.size();
+}
+
+std::vector<Eigen::Vector3f> ball_offsets(double radius, double step) {
+    std::vector<Eigen::Vector3f> offsets;
+    const int n = static_cast<int>(std::floor(radius / step));
+    for (int i = -n; i <= n; ++i)
+        for (int j = -n; j <= n; ++j)
+            for (int k = -n; k <= n; ++k) {
+                Eigen::Vector3f o(i * step, j * step, k * step);
+                if (o.norm() <= radius) offsets.push_back(o);
+            }
+    return offsets;
+}
+
+std::shared_ptr<SubmapFeatures> fail(std::shared_ptr<SubmapFeatures> f, FeatureStatus status,
+                                     std::string reason,
+                                     std::chrono::steady_clock::time_point t0) {
+    f->status = status;
+    f->reason = std::move(reason);
+    f->keypoints.resize(3, 0);
+    f->descriptors.resize(0, kDescriptorSize);
+    f->lrfs.clear();
+    f->duration_s = seconds_since(t0);
+    return f;
+}
+
+}  // namespace
+
+Deadline Deadline::in(double seconds) {
+    Deadline d;
+    if (seconds > 0 && seconds < 1e9) {
+        d.at = std::chrono::steady_clock::now() +
+               std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                   std::chrono::duration<double>(seconds));
+    }
+    return d;
+}
+
+void silence_pcl_console() {
+    static std::once_flag once;
+    std::call_once(once, [] { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); });
+}
+
+std::size_t SubmapFeatures::bytes() const {
+    std::size_t b = sizeof(SubmapFeatures) + submap_id.size() + reason.size();
+    b += static_cast<std::size_t>(keypoints.size()) * sizeof(float);
+    b += static_cast<std::size_t>(descriptors.size()) * sizeof(float);
+    b += lrfs.size() * sizeof(Eigen::Matrix3f);
+    if (icp_cloud && icp_cloud->cloud) {
+        // Points plus roughly the same again for the FLANN index.
+        b += icp_cloud->cloud->size() * (sizeof(pcl::PointXYZ) * 2 + 16);
+    }
+    return b;
+}
+
+std::size_t icp_cloud_size(const SubmapFeatures& f) {
+    return f.icp_cloud && f.icp_cloud->cloud ? f.icp_cloud->cloud->size() : 0;
+}
+
+std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& submap,
+                                                       const MatcherParams& params,
+                                                       const MatcherSettings& settings,
+                                                       const Deadline& deadline) {
+    silence_pcl_console();
+    const auto t0 = std::chrono::steady_clock::now();
+    auto f = std::make_shared<SubmapFeatures>();
+    f->submap_id = submap.id;
+    const auto timed_out = [&] { return deadline.expired(); };
+
+    // Input, without non-finite points.
+    auto raw = Cloud::Ptr(new Cloud);
+    raw->reserve(submap.cloud.size());
+    for (const auto& p : submap.cloud) {
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+        PointT q;
+        q.x = p.x, q.y = p.y, q.z = p.z, q.r = p.r, q.g = p.g, q.b = p.b, q.a = 255;
+        raw->push_back(q);
+    }
+    f->points_in = static_cast<int>(raw->size());
+    if (f->points_in < std::max(settings.min_points, 1))
+        return fail(f, FeatureStatus::kFailed,
+                    "too few points: " + std::to_string(f->points_in), t0);
+    if (!(params.r_N > 0 && params.v_K > 0 && params.r_D > 0 && params.r_LRF > 0))
+        return fail(f, FeatureStatus::kFailed, "non-positive radius or leaf size", t0);
+
+    // 1. Statistical outlier removal.
+    Cloud::Ptr filtered = raw;
+    if (settings.outlier_removal && static_cast<int>(raw->size()) > settings.outlier_mean_k) {
+        filtered = Cloud::Ptr(new Cloud);
+        pcl::StatisticalOutlierRemoval<PointT> sor;
+        sor.setInputCloud(raw);
+        sor.setMeanK(settings.outlier_mean_k);
+        sor.setStddevMulThresh(settings.outlier_stddev_mul);
+        sor.filter(*filtered);
+    }
+    f->points_filtered = static_cast<int>(filtered->size());
+    if (f->points_filtered < std::max(settings.min_points, 1))
+        return fail(f, FeatureStatus::kFailed,
+                    "too few points after outlier removal: " + std::to_string(f->points_filtered),
+                    t0);
+    if (timed_out()) return fail(f, FeatureStatus::kTimeout, "timeout after outlier removal", t0);
+
+    // 3. Keypoints: obstacle points (or the cloud as fallback) thinned by v_K, snapped to the
+    // nearest filtered cloud point.
+    auto candidates = Cloud::Ptr(new Cloud);
+    for (const auto& o : submap.obstacles) {
+        if (!o.allFinite()) continue;
+        PointT q;
+        q.x = o.x(), q.y = o.y(), q.z = o.z();
+        candidates->push_back(q);
+    }
+    if (candidates->empty()) {
+        f->used_cloud_fallback = true;
+        *candidates = *filtered;
+    }
+    f->keypoint_candidates = static_cast<int>(candidates->size());
+    const auto thinned = voxelize(*candidates, params.v_K);
+    pcl::KdTreeFLANN<PointT> cloud_tree;
+    cloud_tree.setInputCloud(filtered);
+    std::vector<int> keypoint_idx;
+    keypoint_idx.reserve(thinned->size());
+    {
+        pcl::Indices nn(1);
+        std::vector<float> d2(1);
+        for (const auto& p : thinned->points) {
+            if (cloud_tree.nearestKSearch(p, 1, nn, d2) == 1) keypoint_idx.push_back(nn[0]);
+        }
+    }
+    std::sort(keypoint_idx.begin(), keypoint_idx.end());
+    keypoint_idx.erase(std::unique(keypoint_idx.begin(), keypoint_idx.end()), keypoint_idx.end());
+    f->keypoints_voxel = static_cast<int>(keypoint_idx.size());
+
+    // 4. Unknown-space filter: keep iff unknown fraction u <= t_K (t_K >= 1 keeps all).
+    if (submap.octree && params.t_K < 1.0) {
+        const octomap::OcTree& tree = *submap.octree;
+        const double step = std::max(tree.getResolution(),
+                                     2.0 * params.r_D /
+                                         std::max(1.0, settings.unknown_samples_per_diameter));
+        const auto offsets = ball_offsets(params.r_D, step);
+        std::vector<int> kept;
+        for (int idx : keypoint_idx) {
+            const auto& p = (*filtered)[idx];
+            if (unknown_fraction(tree, Eigen::Vector3f(p.x, p.y, p.z), offsets) <=
+                params.t_K + 1e-9)
+                kept.push_back(idx);
+        }
+        keypoint_idx.swap(kept);
+    }
+    f->keypoints_unknown = static_cast<int>(keypoint_idx.size());
+    if (f->keypoints_unknown < std::max(settings.min_keypoints, 1))
+        return fail(f, FeatureStatus::kFailed,
+                    "too few keypoints: " + std::to_string(f->keypoints_unknown) + " of " +
+                        std::to_string(f->keypoints_voxel) + " after the unknown-space filter",
+                    t0);
+    if (timed_out()) return fail(f, FeatureStatus::kTimeout, "timeout after keypoints", t0);
+
+    auto keypoints = Cloud::Ptr(new Cloud);
+    keypoints->reserve(keypoint_idx.size());
+    for (int idx : keypoint_idx) keypoints->push_back((*filtered)[idx]);
+
+    // 2. Normals (radius r_N) at the points of the descriptor surface, from a bounded surface.
+    const double k = std::max(1.0, settings.surface_points_per_radius);
+    const auto normal_surface = voxelize(*filtered, params.r_N / k);
+    auto desc_surface = voxelize(*filtered, params.r_D / k);
+    auto normals = pcl::PointCloud<pcl::Normal>::Ptr(new pcl::PointCloud<pcl::Normal>);
+    {
+        pcl::NormalEstimation<PointT, pcl::Normal> ne;
+        ne.setInputCloud(desc_surface);
+        ne.setSearchSurface(normal_surface);
+        ne.setRadiusSearch(params.r_N);
+        ne.setViewPoint(static_cast<float>(settings.viewpoint_x),
+                        static_cast<float>(settings.viewpoint_y),
+                        static_cast<float>(settings.viewpoint_z));
+        ne.compute(*normals);
+    }
+    {
+        // Surface points without a normal (fewer than 3 neighbours) would poison CSHOT.
+        auto s = Cloud::Ptr(new Cloud);
+        auto n = pcl::PointCloud<pcl::Normal>::Ptr(new pcl::PointCloud<pcl::Normal>);
+        for (std::size_t i = 0; i < desc_surface->size(); ++i) {
+            const auto& nn = (*normals)[i];
+            if (std::isfinite(nn.normal_x) && std::isfinite(nn.normal_y) &&
+                std::isfinite(nn.normal_z)) {
+                s->push_back((*desc_surface)[i]);
+                n->push_back(nn);
+            } else {
+                ++f->invalid_normals;
+            }
+        }
+        desc_surface = s;
+        normals = n;
+    }
+    if (desc_surface->size() < 5)
+        return fail(f, FeatureStatus::kFailed, "degenerate surface: too few valid normals", t0);
+    if (timed_out()) return fail(f, FeatureStatus::kTimeout, "timeout after normals", t0);
+
+    // 5. CSHOT of radius r_D.
+    pcl::PointCloud<pcl::SHOT1344> shot;
+    {
+        pcl::SHOTColorEstimation<PointT, pcl::Normal, pcl::SHOT1344> est;
+        est.setInputCloud(keypoints);
+        est.setSearchSurface(desc_surface);
+        est.setInputNormals(normals);
+        est.setRadiusSearch(params.r_D);
+        est.compute(shot);
+    }
+    if (timed_out()) return fail(f, FeatureStatus::kTimeout, "timeout after descriptors", t0);
+
+    // 6. LRFs of radius r_LRF for Hough voting (SHOT's LRF: needs no normals).
+    pcl::PointCloud<pcl::ReferenceFrame> frames;
+    {
+        const auto lrf_surface = voxelize(*filtered, params.r_LRF / k);
+        pcl::SHOTLocalReferenceFrameEstimation<PointT, pcl::ReferenceFrame> est;
+        est.setInputCloud(keypoints);
+        est.setSearchSurface(lrf_surface);
+        est.setRadiusSearch(params.r_LRF);
+        est.compute(frames);
+    }
+
+    // Keep keypoints with a valid descriptor and LRF; normalize descriptors to unit length.
+    std::vector<int> good;
+    good.reserve(keypoints->size());
+    const std::size_t n_kp = std::min({keypoints->size(), shot.size(), frames.size()});
+    for (std::size_t i = 0; i < n_kp; ++i) {
+        const auto& d = shot[i].descriptor;
+        double sq = 0.0;
+        bool finite = true;
+        for (int j = 0; j < kDescriptorSize; ++j) {
+            if (!std::isfinite(d[j])) {
+                finite = false;
+                break;
+            }
+            sq += double(d[j]) * d[j];
+        }
+        if (!finite || sq <= 0.0) {
+            ++f->invalid_descriptors;
+            continue;
+        }
+        const auto& fr = frames[i];
+        bool lrf_ok = true;
+        for (int j = 0; j < 3; ++j)
+            lrf_ok = lrf_ok && std::isfinite(fr.x_axis[j]) && std::isfinite(fr.y_axis[j]) &&
+                     std::isfinite(fr.z_axis[j]);
+        if (!lrf_ok) {
+            ++f->invalid_lrfs;
+            continue;
+        }
+        good.push_back(static_cast<int>(i));
+    }
+    if (static_cast<int>(good.size()) < std::max(settings.min_keypoints, 1))
+        return fail(f, FeatureStatus::kFailed,
+                    "too few keypoints with a valid descriptor and LRF: " +
+                        std::to_string(good.size()),
+                    t0);
+
+    f->keypoints.resize(3, static_cast<Eigen::Index>(good.size()));
+    f->descriptors.resize(static_cast<Eigen::Index>(good.size()), kDescriptorSize);
+    f->lrfs.resize(good.size());
+    for (std::size_t r = 0; r < good.size(); ++r) {
+        const int i = good[r];
+        const auto& p = (*keypoints)[i];
+        f->keypoints.col(static_cast<Eigen::Index>(r)) = Eigen::Vector3f(p.x, p.y, p.z);
+        Eigen::Map<const Eigen::RowVectorXf> d(shot[i].descriptor, kDescriptorSize);
+        f->descriptors.row(static_cast<Eigen::Index>(r)) = d / d.norm();
+        const auto& fr = frames[i];
+        Eigen::Matrix3f R;
+        R.row(0) = Eigen::Map<const Eigen::RowVector3f>(fr.x_axis);
+        R.row(1) = Eigen::Map<const Eigen::RowVector3f>(fr.y_axis);
+        R.row(2) = Eigen::Map<const Eigen::RowVector3f>(fr.z_axis);
+        f->lrfs[r] = R;
+    }
+    f->keypoint_centroid = f->keypoints.rowwise().mean();
+
+    // ICP cloud with its k-d tree, built once per submap.
+    {
+        auto icp = std::make_shared<IcpCloud>();
+        icp->cloud.reset(new pcl::PointCloud<pcl::PointXYZ>);
+        const auto src = settings.icp_voxel_m > 0 ? voxelize(*filtered, settings.icp_voxel_m)
+                                                  : filtered;
+        icp->cloud->reserve(src->size());
+        for (const auto& p : src->points) icp->cloud->push_back(pcl::PointXYZ(p.x, p.y, p.z));
+        icp->tree.reset(new pcl::search::KdTree<pcl::PointXYZ>);
+        icp->tree->setInputCloud(icp->cloud);
+        f->icp_cloud = icp;
+    }
+
+    f->status = FeatureStatus::kOk;
+    f->duration_s = seconds_since(t0);
+    return f;
+}
+
+}  // namespace maptune::matcher

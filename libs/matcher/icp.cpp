@@ -1,0 +1,38 @@
+// PCL translation unit 2 of 2: ICP refinement.
+#include "matcher/icp.hpp"
+
+#include <pcl/registration/icp.h>
+
+#include "matcher/features_internal.hpp"
+
+namespace maptune::matcher {
+
+IcpResult refine_icp(const SubmapFeatures& a, const SubmapFeatures& b,
+                     const Eigen::Matrix4f& T_a_b_init, double max_correspondence_m,
+                     int max_iterations) {
+    IcpResult result;
+    result.T_a_b = T_a_b_init;
+    if (!a.icp_cloud || !b.icp_cloud || a.icp_cloud->cloud->size() < 3 ||
+        b.icp_cloud->cloud->size() < 3 || max_iterations <= 0 || !(max_correspondence_m > 0))
+        return result;
+    pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+    icp.setInputSource(b.icp_cloud->cloud);
+    icp.setInputTarget(a.icp_cloud->cloud);
+    // The target tree was built with the features; do not rebuild it per pair.
+    icp.setSearchMethodTarget(a.icp_cloud->tree, true);
+    icp.setMaxCorrespondenceDistance(max_correspondence_m);
+    icp.setMaximumIterations(max_iterations);
+    icp.setTransformationEpsilon(1e-10);
+    icp.setEuclideanFitnessEpsilon(1e-12);
+    pcl::PointCloud<pcl::PointXYZ> aligned;
+    icp.align(aligned, T_a_b_init);
+    const Eigen::Matrix4f T = icp.getFinalTransformation();
+    if (!T.allFinite()) return result;
+    result.ok = true;
+    result.converged = icp.hasConverged();
+    result.T_a_b = T;
+    result.fitness = icp.getFitnessScore(max_correspondence_m * max_correspondence_m);
+    return result;
+}
+
+}  // namespace maptune::matcher

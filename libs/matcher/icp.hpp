@@ -1,0 +1,22 @@
+#pragma once
+// ICP refinement on the cached full clouds (SPEC §3 step 9); implemented with PCL in icp.cpp.
+
+#include <Eigen/Core>
+
+#include "matcher/features.hpp"
+
+namespace maptune::matcher {
+
+struct IcpResult {
+    bool ok = false;                                   // finite result
+    Eigen::Matrix4f T_a_b = Eigen::Matrix4f::Identity();  // refined pose of b in a's frame
+    double fitness = -1.0;                             // mean squared inlier distance [m^2]
+    bool converged = false;
+};
+
+// Aligns b's ICP cloud (source) to a's (target) starting from T_a_b_init.
+IcpResult refine_icp(const SubmapFeatures& a, const SubmapFeatures& b,
+                     const Eigen::Matrix4f& T_a_b_init, double max_correspondence_m,
+                     int max_iterations);
+
+}  // namespace maptune::matcher

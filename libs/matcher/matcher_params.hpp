@@ -1,0 +1,94 @@
+#pragma once
+// Typed parameters of the reference matcher (SPEC §3). The nine optimized parameters keep the
+// thesis's symbols; everything else is a non-optimized setting with a fixed default.
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace maptune::matcher {
+
+// The nine parameters of SPEC §3, Table 5.1. Defaults are x_baseline.
+struct MatcherParams {
+    double r_N = 0.2;    // normal estimation radius [m], bounds [0.1, 2]
+    double v_K = 0.1;    // keypoint voxel grid leaf size [m], bounds [0.05, 0.5]
+    double t_K = 1.0;    // keep a keypoint iff its unknown-space fraction u <= t_K, [0, 1]
+    double r_D = 0.2;    // CSHOT descriptor radius [m], also the unknown-space radius, [0.1, 2]
+    int n_C = 3;         // max correspondences per keypoint and direction, [1, 10]
+    double t_C = 0.5;    // max normalized descriptor distance (see docs/matcher.md), [0, 1]
+    double r_LRF = 0.2;  // local reference frame radius for Hough voting [m], [0.1, 1]
+    double v_TF = 0.5;   // Hough voting bin size [m], [0.1, 1]
+    int n_TF = 8;        // min votes of a Hough bin to form a group, [3, 300]
+};
+
+// Names in the generic name -> value map, in table order.
+inline const std::vector<std::string>& parameter_names() {
+    static const std::vector<std::string> names{"r_N", "v_K",   "t_K",  "r_D", "n_C",
+                                                "t_C", "r_LRF", "v_TF", "n_TF"};
+    return names;
+}
+
+// The one place where the generic named-value form is converted to and from MatcherParams.
+// Missing keys keep the baseline; unknown keys are ignored (the caller validates the space);
+// integers are rounded to the nearest integer.
+MatcherParams from_named_values(const std::map<std::string, double>& values);
+std::map<std::string, double> to_named_values(const MatcherParams& params);
+
+// Clamps every parameter into its SPEC bounds; returns the number of clamped values.
+int clamp_to_bounds(MatcherParams& params);
+
+// Non-optimized settings: fixed per experiment, part of the feature cache key where they
+// influence per-submap results (see feature_settings_fingerprint).
+struct MatcherSettings {
+    // Step 1: statistical outlier removal.
+    bool outlier_removal = true;
+    int outlier_mean_k = 20;           // neighbours for the mean distance
+    double outlier_stddev_mul = 2.0;   // keep points within mean + mul * stddev
+
+    // Neighbourhood bounding: radius searches (normals, CSHOT, LRF) run on a copy of the
+    // filtered cloud voxelized at radius / surface_points_per_radius (only when that is
+    // coarser than the cloud), so a ball holds at most ~pi * k^2 surface points whatever the
+    // radius. This is what keeps r_N = r_D = 2 m on a dense cloud bounded.
+    double surface_points_per_radius = 10.0;
+
+    // Step 4: unknown-space sampling. The ball of radius r_D is sampled on a grid of step
+    // max(octree resolution, 2 r_D / unknown_samples_per_diameter).
+    double unknown_samples_per_diameter = 16.0;
+
+    // Normals are flipped towards this point of the submap frame (the sensor side).
+    double viewpoint_x = 0.0, viewpoint_y = 0.0, viewpoint_z = 0.0;
+
+    // Step 8: collinearity check of a Hough group by a RANSAC line fit on its keypoints:
+    // the group is dropped if at least this fraction lies within line_threshold of one line.
+    double collinear_inlier_fraction = 0.9;
+    double line_threshold_m = 0.0;     // <= 0: use v_K
+    int line_ransac_iterations = 100;
+
+    // Step 9: RANSAC rigid transform on the largest group, then ICP on the filtered clouds.
+    int ransac_iterations = 1000;
+    double ransac_inlier_threshold_m = 0.0;  // <= 0: use v_TF
+    int icp_max_iterations = 30;
+    double icp_max_correspondence_m = 0.0;   // <= 0: use v_TF
+    double icp_voxel_m = 0.0;                // > 0: ICP clouds voxelized at this leaf
+    bool icp_enabled = true;
+
+    // Step 10: optional plausibility check for ground robots (submap frames gravity
+    // aligned): relative roll and pitch must stay below this bound. <= 0 disables it.
+    double max_roll_pitch_rad = 0.0;
+
+    // Robustness.
+    int min_points = 10;                // fewer points after filtering -> FAILED
+    int min_keypoints = 3;              // fewer keypoints -> FAILED
+    double pair_time_limit_s = 60.0;    // per pair (pair stage) -> TIMEOUT
+    double submap_time_limit_s = 120.0; // per submap feature computation -> FAILED/TIMEOUT
+    double total_time_limit_s = 3600.0; // whole evaluation; pairs not done by then -> TIMEOUT
+
+    std::uint64_t seed = 42;  // all randomness (RANSAC) is derived from it per pair
+    int threads = 0;          // 0: hardware concurrency
+};
+
+// Settings that change per-submap features, as a string for the cache key.
+std::string feature_settings_fingerprint(const MatcherSettings& settings);
+
+}  // namespace maptune::matcher

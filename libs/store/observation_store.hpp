@@ -1,0 +1,93 @@
+#pragma once
+// The observation store: every matcher evaluation ever made on a dataset, across
+// experiments (SPEC §5). SQLite in WAL mode, one protobuf record per observation.
+// One process writes (sample_db); readers may run concurrently.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "params/parameter_set.hpp"
+
+namespace maptune::store {
+
+// Open-time problems (foreign or corrupt file, unwritable path) and I/O failures.
+class StoreError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+enum class PairStatus { kOk, kNoMatch, kFailed, kTimeout };
+const char* to_string(PairStatus status);
+
+struct PairRecord {
+    std::string pair_id;
+    bool matched = false;
+    Eigen::Matrix4d T_a_b_est = Eigen::Matrix4d::Identity();  // estimated pose of B in A
+    double duration_s = 0;
+    PairStatus status = PairStatus::kOk;
+    std::string reason;  // why FAILED/TIMEOUT; empty otherwise
+};
+
+struct ObservationKey {
+    std::string dataset_id;       // content hash of the dataset
+    std::string view;             // "complete" | "subsequent" | custom
+    std::string matcher_id;
+    std::string matcher_version;
+    std::string params_key;       // ParameterSpace::canonical_key of the full rounded set
+    bool operator==(const ObservationKey& o) const;
+};
+
+struct Observation {
+    ObservationKey key;
+    params::ParameterSet params;  // full, rounded
+    std::vector<PairRecord> pairs;
+    double wall_seconds = 0;
+    std::int64_t created_unix_ms = 0;  // set by put() when 0
+    std::int64_t row_id = 0;           // assigned by the store; order of insertion
+};
+
+struct ParamRange {
+    std::string name;
+    double low = 0;   // inclusive
+    double high = 0;  // inclusive
+};
+
+struct ObservationFilter {
+    std::optional<std::string> dataset_id;
+    std::optional<std::string> view;
+    std::optional<std::string> matcher_id;
+    std::vector<ParamRange> ranges;  // all must hold
+    std::size_t limit = 0;           // 0 = no limit
+};
+
+class ObservationStore {
+public:
+    // Opens or creates the store at `path`. Throws StoreError when the file is not an SQLite
+    // database, belongs to another application, is corrupt, or has a newer schema; such a
+    // file is never modified.
+    explicit ObservationStore(const std::string& path);
+    ~ObservationStore();
+    ObservationStore(const ObservationStore&) = delete;
+    ObservationStore& operator=(const ObservationStore&) = delete;
+    ObservationStore(ObservationStore&&) noexcept;
+    ObservationStore& operator=(ObservationStore&&) noexcept;
+
+    std::optional<Observation> get(const ObservationKey& key) const;
+    // Idempotent: true when stored, false when an observation with this key already exists
+    // (the first one is kept). Durable when it returns (one transaction, synchronous=FULL).
+    bool put(const Observation& observation);
+    std::vector<Observation> list(const ObservationFilter& filter = {}) const;
+    std::size_t count() const;
+    const std::string& path() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace maptune::store

@@ -1,0 +1,28 @@
+// maptune: tunes the parameters of feature-based 3D map matchers by Bayesian optimization.
+#include <iostream>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+    CLI::App app{"maptune — Bayesian tuning of 3D map matcher parameters"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", "maptune 0.1.0");
+    int exit_code = 0;
+    maptune::cli::add_score_command(app, exit_code);
+    maptune::cli::add_trials_command(app, exit_code);
+    maptune::cli::add_params_command(app, exit_code);
+    maptune::cli::add_demo_command(app, exit_code);
+#ifdef MAPTUNE_HAVE_BO
+    maptune::cli::add_bo_bench_command(app, exit_code);
+#endif
+#ifdef MAPTUNE_HAVE_DATASET
+    maptune::cli::add_dataset_command(app, exit_code);
+#endif
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : 2;
+    }
+    return exit_code;
+}
