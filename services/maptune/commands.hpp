@@ -9,7 +9,6 @@ namespace maptune::cli {
 void add_score_command(CLI::App& app, int& exit_code);
 void add_trials_command(CLI::App& app, int& exit_code);
 void add_params_command(CLI::App& app, int& exit_code);
-void add_demo_command(CLI::App& app, int& exit_code);
 #ifdef MAPTUNE_HAVE_BO
 void add_bo_bench_command(CLI::App& app, int& exit_code);
 #endif

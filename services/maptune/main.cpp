@@ -11,7 +11,6 @@ int main(int argc, char** argv) {
     maptune::cli::add_score_command(app, exit_code);
     maptune::cli::add_trials_command(app, exit_code);
     maptune::cli::add_params_command(app, exit_code);
-    maptune::cli::add_demo_command(app, exit_code);
 #ifdef MAPTUNE_HAVE_BO
     maptune::cli::add_bo_bench_command(app, exit_code);
 #endif

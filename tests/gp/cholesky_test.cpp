@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <random>
 
 #include "gp/cholesky.hpp"
@@ -71,7 +72,7 @@ TEST_P(CholeskyTest, RejectsIndefiniteAppend) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, CholeskyTest,
                          ::testing::Values(CholeskyBackend::eigen, CholeskyBackend::cholmod),
-                         [](const auto& info) { return to_string(info.param); });
+                         [](const auto& tpi) { return to_string(tpi.param); });
 
 TEST(EigenCholeskyTest, RankOneUpdateAndDowndate) {
     const Eigen::MatrixXd a = random_spd(25, 4);

@@ -1,0 +1,687 @@
+#include "dataset/simulator.hpp"
+
+#include <octomap/OcTree.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include "dataset/dataset.hpp"
+#include "dataset/geometry.hpp"
+
+namespace maptune::dataset {
+namespace fs = std::filesystem;
+
+SimConfig sim_preset(const std::string& name) {
+    SimConfig c;
+    if (name == "lab" || name == "lab-tiny") {
+        c.world = "lab";
+        if (name == "lab-tiny") {
+            c.runs = 2;
+            c.submaps = 4;
+            c.image_width = 48;
+            c.image_height = 36;
+            c.octomap_resolution_m = 0.1;
+            c.voxel_m = 0.06;
+        }
+        return c;
+    }
+    if (name == "moon" || name == "moon-tiny") {
+        c.world = "moon";
+        c.runs = 40;
+        c.submaps = 40;
+        c.world_size = 60;
+        c.max_range_m = 8.0;
+        c.frame_step_m = 0.25;
+        c.submap_distance_m = 2.5;
+        c.submap_sigma_m = 0.08;
+        c.voxel_m = 0.08;
+        c.octomap_resolution_m = 0.1;
+        c.octomap_pixel_stride = 2;
+        c.tilt_deg = -22;
+        c.sigma_x = 0.025;
+        c.sigma_y = 0.015;
+        c.sigma_yaw = 0.008;
+        if (name == "moon-tiny") {
+            c.runs = 2;
+            c.submaps = 4;
+            c.world_size = 30;
+            c.craters = 15;
+            c.image_width = 48;
+            c.image_height = 36;
+            c.octomap_resolution_m = 0.2;
+            c.voxel_m = 0.12;
+        }
+        return c;
+    }
+    throw std::invalid_argument("unknown preset '" + name + "' (lab, moon, lab-tiny, moon-tiny)");
+}
+
+std::vector<std::string> sim_preset_names() { return {"lab", "moon", "lab-tiny", "moon-tiny"}; }
+
+namespace {
+
+// ---------------------------------------------------------------- randomness
+
+// SplitMix64 and Box-Muller written out so that output is identical on every platform
+// (std::normal_distribution is implementation-defined).
+class Rng {
+public:
+    explicit Rng(std::uint64_t seed) : s_(seed) {}
+    std::uint64_t next() {
+        std::uint64_t z = (s_ += 0x9e3779b97f4a7c15ull);
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+        return z ^ (z >> 31);
+    }
+    double uniform() { return (next() >> 11) * (1.0 / 9007199254740992.0); }
+    double uniform(double a, double b) { return a + (b - a) * uniform(); }
+    double normal() {
+        const double u1 = std::max(uniform(), 1e-300), u2 = uniform();
+        return std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * M_PI * u2);
+    }
+
+private:
+    std::uint64_t s_;
+};
+
+std::uint64_t mix(std::uint64_t a, std::uint64_t b) {
+    Rng r(a * 0x9e3779b97f4a7c15ull ^ (b + 0x632be59bd9b4e019ull));
+    return r.next();
+}
+
+// Hash-based value noise in [0, 1], smooth (cubic fade), in world coordinates, so colour
+// belongs to the surface and not to the view.
+float hash3(std::int64_t x, std::int64_t y, std::int64_t z, std::uint32_t seed) {
+    std::uint64_t h = static_cast<std::uint64_t>(x) * 0x8da6b343ull ^
+                      static_cast<std::uint64_t>(y) * 0xd8163841ull ^
+                      static_cast<std::uint64_t>(z) * 0xcb1ab31full ^ seed * 0x9e3779b1ull;
+    h ^= h >> 29;
+    h *= 0xbf58476d1ce4e5b9ull;
+    h ^= h >> 32;
+    return static_cast<float>(h & 0xffffff) / float(0xffffff);
+}
+
+float fade(float t) { return t * t * (3 - 2 * t); }
+
+float value_noise3(float x, float y, float z, std::uint32_t seed) {
+    const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
+    const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy),
+               iz = static_cast<std::int64_t>(fz);
+    const float tx = fade(x - fx), ty = fade(y - fy), tz = fade(z - fz);
+    float c[2][2][2];
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int d = 0; d < 2; ++d) c[a][b][d] = hash3(ix + a, iy + b, iz + d, seed);
+    auto lerp = [](float u, float v, float t) { return u + (v - u) * t; };
+    const float x00 = lerp(c[0][0][0], c[1][0][0], tx), x10 = lerp(c[0][1][0], c[1][1][0], tx);
+    const float x01 = lerp(c[0][0][1], c[1][0][1], tx), x11 = lerp(c[0][1][1], c[1][1][1], tx);
+    return lerp(lerp(x00, x10, ty), lerp(x01, x11, ty), tz);
+}
+
+float fbm2(float x, float y, std::uint32_t seed, int octaves) {
+    float sum = 0, amp = 0.5f, norm = 0;
+    for (int o = 0; o < octaves; ++o) {
+        sum += amp * value_noise3(x, y, 0.37f * o, seed + o);
+        norm += amp;
+        x *= 2.03f;
+        y *= 2.03f;
+        amp *= 0.5f;
+    }
+    return sum / norm;
+}
+
+// ---------------------------------------------------------------- worlds
+
+struct Rgb {
+    float r, g, b;
+};
+
+enum Material : std::uint16_t { kGround = 0, kWall = 1, kRock = 2 /* + rock index */ };
+
+struct Disc {
+    double x, y, r;  // keep-out circle for the path planner
+};
+
+class World {
+public:
+    World(const SimConfig& c, std::uint64_t seed) : lab_(c.world == "lab"), seed_(seed) {
+        if (c.world != "lab" && c.world != "moon") {
+            throw std::invalid_argument("unknown world '" + c.world + "' (lab|moon)");
+        }
+        size_ = c.world_size;
+        res_ = lab_ ? 0.02 : 0.05;
+        const double margin = lab_ ? 1.0 : 2.0;  // thick walls / terrain beyond the drive area
+        x0_ = -margin;
+        y0_ = -margin;
+        nx_ = static_cast<int>(std::ceil((size_ + 2 * margin) / res_)) + 1;
+        ny_ = nx_;
+        h_.assign(static_cast<std::size_t>(nx_) * ny_, 0.f);
+        mat_.assign(h_.size(), kGround);
+        Rng rng(mix(seed, 0x574f524cull));
+        if (lab_) build_lab(c, rng);
+        else build_moon(c, rng);
+    }
+
+    bool lab() const { return lab_; }
+    double size() const { return size_; }
+    const std::vector<Disc>& keep_out() const { return keep_out_; }
+
+    float cell_h(int i, int j) const {
+        i = std::clamp(i, 0, nx_ - 1);
+        j = std::clamp(j, 0, ny_ - 1);
+        return h_[static_cast<std::size_t>(j) * nx_ + i];
+    }
+    float height(double x, double y) const {
+        const double gx = (x - x0_) / res_, gy = (y - y0_) / res_;
+        const int i = static_cast<int>(std::floor(gx)), j = static_cast<int>(std::floor(gy));
+        const float tx = static_cast<float>(gx - i), ty = static_cast<float>(gy - j);
+        const float a = cell_h(i, j), b = cell_h(i + 1, j), c = cell_h(i, j + 1), d = cell_h(i + 1, j + 1);
+        return (a * (1 - tx) + b * tx) * (1 - ty) + (c * (1 - tx) + d * tx) * ty;
+    }
+    bool inside(double x, double y) const {
+        return x > x0_ && y > y0_ && x < x0_ + (nx_ - 1) * res_ && y < y0_ + (ny_ - 1) * res_;
+    }
+    std::uint16_t material(double x, double y) const {
+        const int i = std::clamp(static_cast<int>(std::lround((x - x0_) / res_)), 0, nx_ - 1);
+        const int j = std::clamp(static_cast<int>(std::lround((y - y0_) / res_)), 0, ny_ - 1);
+        return mat_[static_cast<std::size_t>(j) * nx_ + i];
+    }
+    Eigen::Vector3d normal(double x, double y) const {
+        const double e = res_;
+        const double dx = (height(x + e, y) - height(x - e, y)) / (2 * e);
+        const double dy = (height(x, y + e) - height(x, y - e)) / (2 * e);
+        return Eigen::Vector3d(-dx, -dy, 1).normalized();
+    }
+
+    // Ray march against the height field; returns the distance to the first hit.
+    bool raycast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_t, double& t_hit) const {
+        const double min_step = 0.01, max_step = lab_ ? 0.06 : 0.12;
+        double t = 0.05, t_prev = t;
+        while (t < max_t) {
+            const Eigen::Vector3d p = o + t * d;
+            if (!inside(p.x(), p.y())) return false;
+            const double dz = p.z() - height(p.x(), p.y());
+            if (dz < 0) {
+                double lo = t_prev, hi = t;
+                for (int k = 0; k < 8; ++k) {
+                    const double mid = 0.5 * (lo + hi);
+                    const Eigen::Vector3d q = o + mid * d;
+                    (q.z() - height(q.x(), q.y()) < 0 ? hi : lo) = mid;
+                }
+                t_hit = 0.5 * (lo + hi);
+                return true;
+            }
+            t_prev = t;
+            t += std::clamp(0.5 * dz, min_step, max_step);
+        }
+        return false;
+    }
+
+    // Lambertian shading of a procedural albedo: view-independent, tied to the surface.
+    Rgb colour(const Eigen::Vector3d& p) const {
+        const std::uint16_t m = material(p.x(), p.y());
+        const float x = static_cast<float>(p.x()), y = static_cast<float>(p.y()), z = static_cast<float>(p.z());
+        const auto s = static_cast<std::uint32_t>(seed_);
+        Rgb a;
+        if (lab_) {
+            if (m == kWall && z > 0.05f) {
+                // Painted wall with posters: patches of colour in (along-wall, height).
+                const float u = x + y;
+                const float patch = value_noise3(u * 1.3f, z * 1.3f, 0, s + 11);
+                const float hue = value_noise3(std::floor(u * 1.3f), std::floor(z * 1.3f), 5, s + 12);
+                if (patch > 0.62f && z > 0.5f && z < 2.0f) {
+                    a = {0.3f + 0.6f * hue, 0.8f - 0.5f * hue, 0.3f + 0.4f * (1 - hue)};
+                } else {
+                    const float n = 0.85f + 0.1f * value_noise3(u * 8, z * 8, 0, s + 13);
+                    a = {n, n * 0.97f, n * 0.92f};
+                }
+            } else if (m >= kRock) {
+                const float tint = hash3(m, 0, 0, s + 21);
+                const float n = 0.6f + 0.4f * fbm2(x * 9 + z * 3, y * 9 - z * 3, s + 22 + m, 3);
+                a = {n * (0.55f + 0.25f * tint), n * (0.42f + 0.1f * tint), n * (0.32f - 0.1f * tint)};
+            } else {
+                // Floor: carpet tiles 0.5 m with seams and fine speckle.
+                const float fx = x * 2 - std::floor(x * 2), fy = y * 2 - std::floor(y * 2);
+                const bool seam = fx < 0.04f || fy < 0.04f;
+                const float tile = hash3(static_cast<std::int64_t>(std::floor(x * 2)),
+                                         static_cast<std::int64_t>(std::floor(y * 2)), 1, s + 31);
+                const float n = 0.7f + 0.3f * value_noise3(x * 20, y * 20, 0, s + 32);
+                const float base = seam ? 0.25f : 0.45f + 0.15f * tile;
+                a = {base * n * 0.9f, base * n * 0.95f, base * n * 1.1f};
+            }
+        } else {
+            const float n = 0.55f + 0.45f * fbm2(x * 0.8f, y * 0.8f, s + 41, 4);
+            const float fine = 0.8f + 0.2f * value_noise3(x * 12, y * 12, z * 12, s + 42);
+            float g = n * fine;
+            if (m >= kRock) g *= 0.6f + 0.5f * hash3(m, 1, 0, s + 43);
+            a = {g * 0.62f, g * 0.6f, g * 0.57f};
+        }
+        const Eigen::Vector3d nrm = normal(p.x(), p.y());
+        // Lab: diffuse ceiling light; moon: low sun, hard shading (features stand out).
+        const Eigen::Vector3d sun = lab_ ? Eigen::Vector3d(0.2, 0.1, 1).normalized()
+                                         : Eigen::Vector3d(0.7, 0.3, 0.45).normalized();
+        double lambert = std::max(0.0, nrm.dot(sun));
+        if (m == kWall && lab_ && p.z() > 0.05) lambert = 0.8;  // height field walls have no true normal
+        const float shade = static_cast<float>(lab_ ? 0.45 + 0.55 * lambert : 0.15 + 0.95 * lambert);
+        return {a.r * shade, a.g * shade, a.b * shade};
+    }
+
+    // Textureless patches fail stereo matching: a fixed fraction of the surface.
+    bool stereo_hole(const Eigen::Vector3d& p) const {
+        return value_noise3(static_cast<float>(p.x() * 2.2), static_cast<float>(p.y() * 2.2),
+                            static_cast<float>(p.z() * 2.2), static_cast<std::uint32_t>(seed_) + 77) < 0.07f;
+    }
+
+    HeightMapImage height_map(double resolution) const {
+        HeightMapImage img;
+        img.resolution = resolution;
+        img.x0 = 0;
+        img.y0 = 0;
+        img.nx = static_cast<int>(size_ / resolution);
+        img.ny = img.nx;
+        for (int j = 0; j < img.ny; ++j)
+            for (int i = 0; i < img.nx; ++i)
+                img.height.push_back(height((i + 0.5) * resolution, (j + 0.5) * resolution));
+        return img;
+    }
+
+private:
+    void stamp(double cx, double cy, double rx, double ry, double rot, double height_m,
+               std::uint16_t mat, std::uint32_t bump_seed, bool additive) {
+        const double r = std::max(rx, ry) * 1.2;
+        const int i0 = std::max(0, static_cast<int>((cx - r - x0_) / res_));
+        const int i1 = std::min(nx_ - 1, static_cast<int>((cx + r - x0_) / res_) + 1);
+        const int j0 = std::max(0, static_cast<int>((cy - r - y0_) / res_));
+        const int j1 = std::min(ny_ - 1, static_cast<int>((cy + r - y0_) / res_) + 1);
+        const double c = std::cos(rot), s = std::sin(rot);
+        for (int j = j0; j <= j1; ++j) {
+            for (int i = i0; i <= i1; ++i) {
+                const double x = x0_ + i * res_ - cx, y = y0_ + j * res_ - cy;
+                const double u = (c * x + s * y) / rx, v = (-s * x + c * y) / ry;
+                const double q = 1 - u * u - v * v;
+                if (q <= 0) continue;
+                const float bump = 0.85f + 0.3f * value_noise3(static_cast<float>(x * 8), static_cast<float>(y * 8), 0, bump_seed);
+                const float hr = static_cast<float>(height_m * std::sqrt(q)) * bump;
+                float& cell = h_[static_cast<std::size_t>(j) * nx_ + i];
+                const float base = additive ? ground_[static_cast<std::size_t>(j) * nx_ + i] : 0.f;
+                if (base + hr > cell) {
+                    cell = base + hr;
+                    mat_[static_cast<std::size_t>(j) * nx_ + i] = mat;
+                }
+            }
+        }
+    }
+
+    void build_lab(const SimConfig& c, Rng& rng) {
+        const float wall_h = 2.5f;
+        for (int j = 0; j < ny_; ++j) {
+            for (int i = 0; i < nx_; ++i) {
+                const double x = x0_ + i * res_, y = y0_ + j * res_;
+                const std::size_t k = static_cast<std::size_t>(j) * nx_ + i;
+                if (x < 0 || y < 0 || x > size_ || y > size_) {
+                    h_[k] = wall_h;
+                    mat_[k] = kWall;
+                } else {
+                    h_[k] = 0.003f * value_noise3(static_cast<float>(x * 10), static_cast<float>(y * 10), 0, 3);
+                }
+            }
+        }
+        // A few furniture blocks along the walls (cupboards, a table-like step) for structure.
+        for (int b = 0; b < 3; ++b) {
+            const int side = static_cast<int>(rng.uniform() * 4);
+            const double along = rng.uniform(1.0, size_ - 2.0), len = rng.uniform(0.6, 1.4);
+            const double depth = rng.uniform(0.4, 0.6), hb = rng.uniform(0.5, 1.0);
+            for (int j = 0; j < ny_; ++j) {
+                for (int i = 0; i < nx_; ++i) {
+                    const double x = x0_ + i * res_, y = y0_ + j * res_;
+                    double a = 0, d = 0;
+                    if (side == 0) { a = x; d = y; }
+                    else if (side == 1) { a = x; d = size_ - y; }
+                    else if (side == 2) { a = y; d = x; }
+                    else { a = y; d = size_ - x; }
+                    if (d >= 0 && d < depth && a > along && a < along + len) {
+                        const std::size_t k = static_cast<std::size_t>(j) * nx_ + i;
+                        h_[k] = static_cast<float>(hb);
+                        mat_[k] = kWall;
+                    }
+                }
+            }
+            keep_out_.push_back({side >= 2 ? (side == 2 ? depth / 2 : size_ - depth / 2) : along + len / 2,
+                                 side < 2 ? (side == 0 ? depth / 2 : size_ - depth / 2) : along + len / 2,
+                                 std::max(len, depth) / 2 + 0.5});
+        }
+        ground_ = h_;
+        const int n = c.rocks > 0 ? c.rocks : 15 + static_cast<int>(rng.uniform() * 16);
+        for (int k = 0; k < n; ++k) {
+            const double d = rng.uniform(0.2, 0.8);  // diameter
+            const double x = rng.uniform(0.8, size_ - 0.8), y = rng.uniform(0.8, size_ - 0.8);
+            const double rx = d / 2, ry = d / 2 * rng.uniform(0.6, 1.0);
+            stamp(x, y, rx, ry, rng.uniform(0, M_PI), d * rng.uniform(0.35, 0.6),
+                  static_cast<std::uint16_t>(kRock + k), static_cast<std::uint32_t>(k + 100), true);
+            keep_out_.push_back({x, y, rx + 0.45});
+        }
+    }
+
+    void build_moon(const SimConfig& c, Rng& rng) {
+        const auto s = static_cast<std::uint32_t>(seed_);
+        for (int j = 0; j < ny_; ++j) {
+            for (int i = 0; i < nx_; ++i) {
+                const float x = static_cast<float>(x0_ + i * res_), y = static_cast<float>(y0_ + j * res_);
+                h_[static_cast<std::size_t>(j) * nx_ + i] =
+                    1.6f * (fbm2(x / 18.f, y / 18.f, s + 1, 3) - 0.5f) +
+                    0.25f * (fbm2(x / 3.f, y / 3.f, s + 2, 3) - 0.5f) +
+                    0.04f * (value_noise3(x * 2.5f, y * 2.5f, 0, s + 3) - 0.5f);
+            }
+        }
+        // Craters: bowl with a raised rim, diameters 1..10 m, small ones more frequent.
+        for (int k = 0; k < c.craters; ++k) {
+            const double D = std::pow(10.0, rng.uniform() * rng.uniform());  // 1..10 m, mostly small
+            const double cx = rng.uniform(-1, size_ + 1), cy = rng.uniform(-1, size_ + 1);
+            const double R = D / 2, depth = 0.18 * D, rim = 0.05 * D;
+            const double reach = 2.0 * R;
+            const int i0 = std::max(0, static_cast<int>((cx - reach - x0_) / res_));
+            const int i1 = std::min(nx_ - 1, static_cast<int>((cx + reach - x0_) / res_) + 1);
+            const int j0 = std::max(0, static_cast<int>((cy - reach - y0_) / res_));
+            const int j1 = std::min(ny_ - 1, static_cast<int>((cy + reach - y0_) / res_) + 1);
+            for (int j = j0; j <= j1; ++j) {
+                for (int i = i0; i <= i1; ++i) {
+                    const double x = x0_ + i * res_ - cx, y = y0_ + j * res_ - cy;
+                    const double r = std::sqrt(x * x + y * y) / R;
+                    double dh = 0;
+                    if (r < 1) dh = rim - (depth + rim) * (1 - r * r);
+                    else if (r < 2) dh = rim * std::pow(2 - r, 2.0);
+                    h_[static_cast<std::size_t>(j) * nx_ + i] += static_cast<float>(dh);
+                }
+            }
+            if (D > 2.0) keep_out_.push_back({cx, cy, R + 0.8});
+        }
+        ground_ = h_;
+        const int n = c.rocks > 0 ? c.rocks : static_cast<int>(90 * (size_ * size_) / 3600.0);
+        for (int k = 0; k < n; ++k) {
+            const double d = 0.2 + 1.3 * std::pow(rng.uniform(), 2.0);  // 0.2..1.5 m, mostly small
+            const double x = rng.uniform(0, size_), y = rng.uniform(0, size_);
+            const double rx = d / 2, ry = d / 2 * rng.uniform(0.6, 1.0);
+            stamp(x, y, rx, ry, rng.uniform(0, M_PI), d * rng.uniform(0.3, 0.55),
+                  static_cast<std::uint16_t>(kRock + k), static_cast<std::uint32_t>(k + 500), true);
+            keep_out_.push_back({x, y, rx + 0.6});
+        }
+    }
+
+    bool lab_;
+    std::uint64_t seed_;
+    double size_ = 0, res_ = 0, x0_ = 0, y0_ = 0;
+    int nx_ = 0, ny_ = 0;
+    std::vector<float> h_, ground_;
+    std::vector<std::uint16_t> mat_;
+    std::vector<Disc> keep_out_;
+};
+
+// ---------------------------------------------------------------- rover
+
+struct Pose2 {
+    double x, y, yaw;
+};
+
+class PathPlanner {
+public:
+    PathPlanner(const World& w, Rng& rng, double margin) : w_(w), rng_(rng), margin_(margin) {}
+
+    Pose2 start() {
+        for (int attempt = 0; attempt < 1000; ++attempt) {
+            Pose2 p{rng_.uniform(margin_ + 0.5, w_.size() - margin_ - 0.5),
+                    rng_.uniform(margin_ + 0.5, w_.size() - margin_ - 0.5), rng_.uniform(-M_PI, M_PI)};
+            if (clearance(p.x, p.y) > 0.3) return p;
+        }
+        return {w_.size() / 2, w_.size() / 2, 0};
+    }
+
+    // Advances by `step` on a smooth curve that keeps away from walls, rocks and craters.
+    Pose2 advance(const Pose2& p, double step) {
+        curvature_ += -0.15 * curvature_ + 0.25 * rng_.normal();
+        // Look ahead at candidate headings; steer towards the one with most clearance,
+        // blended with the wandering curvature.
+        double best_score = -1e9, best_turn = 0;
+        for (int k = -6; k <= 6; ++k) {
+            const double turn = k * 0.12;
+            const double yaw = p.yaw + turn;
+            double clear = 1e9;
+            for (double d = 0.3; d <= 2.0; d += 0.3) {
+                clear = std::min(clear, clearance(p.x + d * std::cos(yaw), p.y + d * std::sin(yaw)));
+            }
+            const double score = std::min(clear, 1.0) * 3 - std::abs(turn - curvature_ * step * 4);
+            if (score > best_score) {
+                best_score = score;
+                best_turn = turn;
+            }
+        }
+        const double dyaw = std::clamp(best_turn, -step / 0.6, step / 0.6);  // min turn radius 0.6 m
+        Pose2 q{p.x, p.y, p.yaw + 0.5 * dyaw};
+        q.x += step * std::cos(q.yaw);
+        q.y += step * std::sin(q.yaw);
+        q.yaw = std::remainder(p.yaw + dyaw, 2 * M_PI);
+        return q;
+    }
+
+private:
+    double clearance(double x, double y) const {
+        double c = std::min({x - margin_, y - margin_, w_.size() - margin_ - x, w_.size() - margin_ - y});
+        for (const auto& d : w_.keep_out()) c = std::min(c, std::hypot(x - d.x, y - d.y) - d.r);
+        return c;
+    }
+
+    const World& w_;
+    Rng& rng_;
+    double margin_;
+    double curvature_ = 0;
+};
+
+Eigen::Isometry3d base_pose(const World& w, const Pose2& p) {
+    // Roll and pitch follow the terrain under a 0.8 m x 0.7 m wheelbase.
+    const double c = std::cos(p.yaw), s = std::sin(p.yaw);
+    const double hf = w.height(p.x + 0.4 * c, p.y + 0.4 * s), hb = w.height(p.x - 0.4 * c, p.y - 0.4 * s);
+    const double hl = w.height(p.x - 0.35 * s, p.y + 0.35 * c), hr = w.height(p.x + 0.35 * s, p.y - 0.35 * c);
+    const double pitch = -std::atan2(hf - hb, 0.8), roll = std::atan2(hl - hr, 0.7);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = (Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                     .toRotationMatrix();
+    T.translation() = Eigen::Vector3d(p.x, p.y, 0.25 * (hf + hb + hl + hr));
+    return T;
+}
+
+Eigen::Matrix3d rpy(double roll, double pitch, double yaw) {
+    return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+            Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+        .toRotationMatrix();
+}
+
+std::uint8_t to_byte(float v) { return static_cast<std::uint8_t>(std::clamp(std::lround(v * 255.f), 0L, 255L)); }
+
+// Builds the submaps of one run and hands them to `rw`.
+void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw) {
+    Rng rng(mix(c.seed, 1000 + static_cast<std::uint64_t>(run)));
+    PathPlanner planner(world, rng, world.lab() ? 0.7 : 6.0);
+    Pose2 p2 = planner.start();
+    Eigen::Isometry3d T_gt = base_pose(world, p2);
+    Eigen::Isometry3d T_odom = T_gt;  // odometry starts at the true pose
+    const double scale_bias = 1 + c.scale_bias_sigma * rng.normal();
+
+    const double tan_h = std::tan(c.hfov_deg * M_PI / 360), tan_v = std::tan(c.vfov_deg * M_PI / 360);
+    std::vector<Eigen::Vector3d> rays_cam;  // camera frame: x forward, y left, z up
+    for (int v = 0; v < c.image_height; ++v) {
+        for (int u = 0; u < c.image_width; ++u) {
+            rays_cam.emplace_back(1, tan_h * (1 - 2 * (u + 0.5) / c.image_width),
+                                  tan_v * (1 - 2 * (v + 0.5) / c.image_height));
+        }
+    }
+    std::vector<StampedPose> gt_full, odom_full;
+    int frame = 0;
+    const double dt = 0.5;  // s per frame
+    for (int sm = 0; sm < c.submaps; ++sm) {
+        const Eigen::Isometry3d T_w_sub_gt = T_gt, T_w_sub_odom = T_odom;
+        const double t0 = frame * dt;
+        std::vector<ColoredPoint> raw;
+        auto tree = std::make_shared<octomap::OcTree>(c.octomap_resolution_m);
+        double dist = 0, var = 0;
+        bool first = true;
+        while (first || (dist < c.submap_distance_m && std::sqrt(var) < c.submap_sigma_m)) {
+            if (!first) {
+                // Drive one step: true motion, then odometry with noise on the increment.
+                const Pose2 next = planner.advance(p2, c.frame_step_m);
+                const Eigen::Isometry3d T_next = base_pose(world, next);
+                const Eigen::Isometry3d inc = T_gt.inverse() * T_next;
+                const double ds = inc.translation().head<2>().norm();
+                const Eigen::Vector3d nz = world.normal(next.x, next.y);
+                const double slope = std::sqrt(std::max(0.0, 1 - nz.z() * nz.z())) / std::max(nz.z(), 0.2);
+                const double k = 1 + 2 * slope, sq = std::sqrt(ds);
+                Eigen::Isometry3d noise = Eigen::Isometry3d::Identity();
+                noise.translation() = Eigen::Vector3d((scale_bias - 1) * ds + k * c.sigma_x * sq * rng.normal(),
+                                                      k * c.sigma_y * sq * rng.normal(), 0);
+                noise.linear() = rpy(c.sigma_roll_pitch * sq * rng.normal(), c.sigma_roll_pitch * sq * rng.normal(),
+                                     k * c.sigma_yaw * sq * rng.normal());
+                T_odom = T_odom * inc * noise;
+                T_gt = T_next;
+                p2 = next;
+                dist += ds;
+                var += k * k * (c.sigma_x * c.sigma_x + c.sigma_y * c.sigma_y) * ds +
+                       std::pow(dist * k * c.sigma_yaw * sq, 2);
+            }
+            first = false;
+            gt_full.push_back({frame * dt, T_gt});
+            odom_full.push_back({frame * dt, T_odom});
+            // One depth frame at the current pan angle of the sweep.
+            const double pan = c.pan_sweep_deg[frame % c.pan_sweep_deg.size()] * M_PI / 180;
+            Eigen::Isometry3d T_base_cam = Eigen::Isometry3d::Identity();
+            T_base_cam.translation() = Eigen::Vector3d(0, 0, c.camera_height_m);
+            T_base_cam.linear() = rpy(0, -c.tilt_deg * M_PI / 180, pan);
+            const Eigen::Isometry3d T_w_cam = T_gt * T_base_cam;
+            // Points go into the submap frame through odometry, as on the robot.
+            const Eigen::Isometry3d T_sub_cam = T_w_sub_odom.inverse() * T_odom * T_base_cam;
+            octomap::Pointcloud scan;
+            for (int v = 0; v < c.image_height; ++v) {
+                for (int u = 0; u < c.image_width; ++u) {
+                    const Eigen::Vector3d& rc = rays_cam[static_cast<std::size_t>(v) * c.image_width + u];
+                    const Eigen::Vector3d dir_w = (T_w_cam.linear() * rc).normalized();
+                    const bool for_octomap = u % c.octomap_pixel_stride == 0 && v % c.octomap_pixel_stride == 0;
+                    double t = 0;
+                    const bool hit = world.raycast(T_w_cam.translation(), dir_w, c.max_range_m * 1.3, t);
+                    const double depth = hit ? t / rc.norm() : 0;  // along the optical axis
+                    if (!hit || depth > c.max_range_m) {
+                        if (for_octomap) {
+                            const Eigen::Vector3d e = T_sub_cam * (rc * (c.max_range_m * 1.5));
+                            scan.push_back(static_cast<float>(e.x()), static_cast<float>(e.y()), static_cast<float>(e.z()));
+                        }
+                        continue;
+                    }
+                    const Eigen::Vector3d p_w = T_w_cam.translation() + t * dir_w;
+                    if (rng.uniform() < c.hole_probability || world.stereo_hole(p_w)) continue;
+                    // Stereo depth noise: sigma_z = z^2 sigma_d / (f b).
+                    const double sigma_z = depth * depth * c.disparity_sigma_px / (c.focal_px * c.baseline_m);
+                    const double z_noisy = depth + sigma_z * rng.normal();
+                    const Eigen::Vector3d p_sub = T_sub_cam * (rc * z_noisy);
+                    const Rgb col = world.colour(p_w);
+                    ColoredPoint q;
+                    q.x = static_cast<float>(p_sub.x());
+                    q.y = static_cast<float>(p_sub.y());
+                    q.z = static_cast<float>(p_sub.z());
+                    q.r = to_byte(col.r);
+                    q.g = to_byte(col.g);
+                    q.b = to_byte(col.b);
+                    raw.push_back(q);
+                    if (for_octomap) scan.push_back(q.x, q.y, q.z);
+                }
+            }
+            const Eigen::Vector3d o = T_sub_cam.translation();
+            tree->insertPointCloud(scan, octomap::point3d(static_cast<float>(o.x()), static_cast<float>(o.y()),
+                                                          static_cast<float>(o.z())),
+                                   c.max_range_m, false, true);
+            ++frame;
+        }
+        tree->prune();
+        Submap s;
+        s.cloud = voxel_filter(raw, static_cast<float>(c.voxel_m));
+        if (s.cloud.empty()) {  // looking into the void (should not happen in these worlds)
+            ColoredPoint q;
+            s.cloud.push_back(q);
+        }
+        // Obstacles in the gravity-aligned submap frame (the robot knows gravity from its IMU).
+        const Eigen::Matrix3d R = T_w_sub_odom.linear();
+        const double yaw = std::atan2(R(1, 0), R(0, 0));
+        const Eigen::Matrix3f R_g = (Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R).cast<float>();
+        std::vector<ColoredPoint> leveled = s.cloud;
+        for (auto& q : leveled) {
+            const Eigen::Vector3f v = R_g * Eigen::Vector3f(q.x, q.y, q.z);
+            q.x = v.x(); q.y = v.y(); q.z = v.z();
+        }
+        HeightObstacleSettings hs;
+        hs.cell = static_cast<float>(std::max(0.1, 2.5 * c.voxel_m));
+        hs.step = world.lab() ? 0.1f : 0.15f;
+        hs.negative_drop = world.lab() ? 0.15f : 0.25f;
+        for (const auto& v : detect_obstacles_height(leveled, hs)) s.obstacles.push_back(R_g.transpose() * v);
+        s.octree = tree;
+        s.T_world_submap_gt = T_w_sub_gt;
+        s.T_world_submap_odom = T_w_sub_odom;
+        rw.add_submap(s, t0);
+    }
+    rw.set_full_trajectories(std::move(gt_full), std::move(odom_full));
+    rw.finish();
+}
+
+}  // namespace
+
+HeightMapImage world_height_map(const SimConfig& config, double resolution) {
+    return World(config, config.seed).height_map(resolution);
+}
+
+std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overwrite,
+                             const std::function<void(const GenerateProgress&)>& progress) {
+    if (c.runs < 1 || c.runs > 1000) throw std::invalid_argument("--runs must be in [1, 1000]");
+    if (c.submaps < 1 || c.submaps > 1000) throw std::invalid_argument("--submaps must be in [1, 1000]");
+    if (c.pan_sweep_deg.empty()) throw std::invalid_argument("pan sweep must not be empty");
+    const World world(c, c.seed);
+    DatasetWriter writer(out, c.world, "simulator", c.voxel_m, std::max(0.2, 4 * c.voxel_m), overwrite);
+    writer.set_meta("world", c.world);
+    writer.set_meta("seed", std::to_string(c.seed));
+    writer.set_meta("runs", std::to_string(c.runs));
+    writer.set_meta("submaps", std::to_string(c.submaps));
+    writer.set_meta("world_size_m", std::to_string(c.world_size));
+    writer.set_meta("max_range_m", std::to_string(c.max_range_m));
+    writer.set_meta("octomap_resolution_m", std::to_string(c.octomap_resolution_m));
+    writer.set_meta("image", std::to_string(c.image_width) + "x" + std::to_string(c.image_height));
+    writer.set_meta("submap_distance_m", std::to_string(c.submap_distance_m));
+    std::atomic<int> next{0}, done{0};
+    std::mutex progress_mutex;
+    std::exception_ptr error;
+    auto worker = [&]() {
+        for (int r = next++; r < c.runs; r = next++) {
+            try {
+                RunWriter rw = writer.run(r);
+                simulate_run(c, world, r, rw);
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(progress_mutex);
+                if (!error) error = std::current_exception();
+                next = c.runs;
+                return;
+            }
+            std::lock_guard<std::mutex> lock(progress_mutex);
+            ++done;
+            if (progress) progress({done.load(), c.runs});
+        }
+    };
+    int n_threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    n_threads = std::min(n_threads, c.runs);
+    std::vector<std::thread> pool;
+    for (int i = 1; i < n_threads; ++i) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+    return writer.finish();
+}
+
+}  // namespace maptune::dataset

@@ -1,0 +1,184 @@
+// Runs the real maptune executable as a user would and checks its output and exit codes.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "store/observation_store.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+    int exit_code = -1;
+    std::string out, err;
+};
+
+class CliTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        char tmpl[] = "/tmp/maptune_cli_test_XXXXXX";
+        ASSERT_NE(mkdtemp(tmpl), nullptr);
+        dir_ = tmpl;
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    static std::string slurp(const fs::path& p) {
+        std::ifstream in(p);
+        std::stringstream s;
+        s << in.rdbuf();
+        return s.str();
+    }
+
+    // Runs `maptune args` in the source dir (so default config paths resolve) with `input`
+    // on standard input.
+    CliRun maptune(const std::string& args, const std::string& input = "") {
+        const fs::path in = dir_ / "stdin", out = dir_ / "stdout", err = dir_ / "stderr";
+        std::ofstream(in) << input;
+        const std::string cmd = std::string("cd ") + MAPTUNE_SOURCE_DIR + " && " + MAPTUNE_CLI +
+                                " " + args + " <" + in.string() + " >" + out.string() + " 2>" +
+                                err.string();
+        const int status = std::system(cmd.c_str());
+        CliRun r;
+        r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        r.out = slurp(out);
+        r.err = slurp(err);
+        return r;
+    }
+
+    fs::path dir_;
+};
+
+TEST_F(CliTest, ScoreMatchesSpecFormula) {
+    const CliRun r = maptune("score",
+                          R"({"e_star": 0.4, "m_star": 60, "w_v": 0.5, "matches": [)"
+                          R"({"e_t": 0.05, "e_r": 0.0, "d": 5.0}, {"e_t": 0.2, "e_r": 0.0, "d": 5.0}]})");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["m"], 2);
+    const double v = 2.0 / (60.0 / 9.0 + 2.0);
+    const double eps = (0.95 + 0.78053) / 2.0;
+    EXPECT_NEAR(j["v"].get<double>(), v, 1e-12);
+    EXPECT_NEAR(j["eps"].get<double>(), eps, 1e-5);
+    EXPECT_NEAR(j["p"].get<double>(), 0.5 * v + 0.5 * eps, 1e-5);
+}
+
+TEST_F(CliTest, ScoreReadsAFileAndDefaultsSettings) {
+    std::ofstream(dir_ / "m.json") << R"({"matches": []})";
+    const CliRun r = maptune("score " + (dir_ / "m.json").string());
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["p"].get<double>(), 0.0);
+    EXPECT_EQ(j["e_star"].get<double>(), 0.4);
+    EXPECT_EQ(j["w_v"].get<double>(), 0.5);
+}
+
+TEST_F(CliTest, ScoreRejectsBadInputWithExitCode2) {
+    struct Case {
+        std::string input, fragment;
+    };
+    for (const Case& c : std::vector<Case>{
+             {"{not json", "invalid JSON"},
+             {R"({"matches": [{"e_t": "x", "e_r": 0, "d": 1}]})", "matches[0].e_t: expected a number"},
+             {R"({"matches": [{"e_t": 0.1, "d": 1}]})", "matches[0].e_r: missing"},
+             {R"({"matches": [{"e_t": -1, "e_r": 0, "d": 1}]})", "matches[0].e_t must be"},
+             {R"({"e_star": 0.01, "matches": []})", "e_star must be"},
+             {R"({"m_star": 0, "matches": []})", "m_star must be"},
+             {R"({"matches": {}})", "'matches' must be an array"},
+             {R"({"matchez": []})", "unknown key 'matchez'"},
+             {R"([1, 2])", "expected a JSON object"},
+         }) {
+        const CliRun r = maptune("score", c.input);
+        EXPECT_EQ(r.exit_code, 2) << c.input;
+        EXPECT_NE(r.err.find(c.fragment), std::string::npos) << c.input << " → " << r.err;
+        EXPECT_TRUE(r.out.empty());
+    }
+    const CliRun missing = maptune("score /nonexistent.json");
+    EXPECT_EQ(missing.exit_code, 2);
+    EXPECT_NE(missing.err.find("/nonexistent.json: cannot open"), std::string::npos);
+}
+
+TEST_F(CliTest, TrialsListsStoredObservationsInEveryFormat) {
+    const std::string db = (dir_ / "obs.db").string();
+    {
+        maptune::store::ObservationStore store(db);
+        for (int i = 0; i < 3; ++i) {
+            maptune::store::Observation o;
+            o.key = {"ds1", i == 2 ? "subsequent" : "complete", "lru_matcher", "1", "k" + std::to_string(i)};
+            o.params.set("r_N", 0.2 + 0.1 * i);
+            o.params.set("n_TF", 8);
+            maptune::store::PairRecord p;
+            p.pair_id = "run00/0-1";
+            p.matched = i > 0;
+            o.pairs = {p, p};
+            o.pairs[1].status = maptune::store::PairStatus::kTimeout;
+            o.wall_seconds = 1.25;
+            store.put(o);
+        }
+    }
+    const CliRun json = maptune("trials --db " + db + " -f json");
+    ASSERT_EQ(json.exit_code, 0) << json.err;
+    const auto rows = nlohmann::json::parse(json.out);
+    ASSERT_EQ(rows.size(), 3u);
+    EXPECT_EQ(rows[1]["view"], "complete");
+    EXPECT_EQ(rows[1]["matched"], 2);
+    EXPECT_EQ(rows[1]["timeout"], 1);
+    EXPECT_NEAR(rows[1]["r_N"].get<double>(), 0.3, 1e-12);
+    EXPECT_EQ(rows[2]["pairs"], 2);
+
+    const CliRun csv = maptune("trials --db " + db + " -f csv --view subsequent");
+    ASSERT_EQ(csv.exit_code, 0);
+    EXPECT_EQ(csv.out.rfind("id,created,dataset,view,matcher,pairs,matched,failed,timeout,wall_s,n_TF,r_N\n", 0), 0u)
+        << csv.out;
+    EXPECT_EQ(std::count(csv.out.begin(), csv.out.end(), '\n'), 2);
+
+    const CliRun table = maptune("trials --db " + db);
+    ASSERT_EQ(table.exit_code, 0);
+    EXPECT_NE(table.out.find("lru_matcher/1"), std::string::npos);
+
+    const CliRun none = maptune("trials --db " + (dir_ / "absent.db").string());
+    EXPECT_EQ(none.exit_code, 2);
+    EXPECT_NE(none.err.find("no such file"), std::string::npos);
+    EXPECT_FALSE(fs::exists(dir_ / "absent.db"));  // never created by a read-only command
+
+    std::ofstream(dir_ / "foreign.db") << "hello";
+    const CliRun foreign = maptune("trials --db " + (dir_ / "foreign.db").string());
+    EXPECT_EQ(foreign.exit_code, 2);
+    EXPECT_NE(foreign.err.find("not an SQLite database"), std::string::npos);
+}
+
+TEST_F(CliTest, ParamsExportKeyAndShow) {
+    const CliRun ros = maptune("params export --params configs/params/x_9D_ssgt1.yaml --node matcher");
+    ASSERT_EQ(ros.exit_code, 0) << ros.err;
+    EXPECT_NE(ros.out.find("matcher:\n  ros__parameters:\n"), std::string::npos);
+    EXPECT_NE(ros.out.find("    r_D: 2.0\n"), std::string::npos) << ros.out;
+    EXPECT_NE(ros.out.find("    n_TF: 63\n"), std::string::npos);
+
+    const CliRun key = maptune("params key --params configs/params/x_2D.yaml");
+    ASSERT_EQ(key.exit_code, 0);
+    EXPECT_EQ(key.out, "n_C=3;n_TF=8;r_D=0.34;r_LRF=0.20;r_N=0.20;t_C=0.50;t_K=0.95;v_K=0.10;v_TF=0.50\n");
+
+    const CliRun show = maptune("params show");
+    ASSERT_EQ(show.exit_code, 0);
+    EXPECT_NE(show.out.find("n_TF"), std::string::npos);
+
+    std::ofstream(dir_ / "bad.yaml") << "r_N: 0.2\nn_C: 11\n";
+    const CliRun bad = maptune("params key --params " + (dir_ / "bad.yaml").string());
+    EXPECT_EQ(bad.exit_code, 2);
+    EXPECT_NE(bad.err.find("bad.yaml:2: n_C: n_C: 11.0 is outside [1.0, 10.0]"), std::string::npos)
+        << bad.err;
+}
+
+TEST_F(CliTest, HelpAndUsageErrors) {
+    const CliRun help = maptune("--help");
+    EXPECT_EQ(help.exit_code, 0);
+    EXPECT_NE(help.out.find("score"), std::string::npos);
+    const CliRun bad = maptune("trials --format xml --db x.db");
+    EXPECT_EQ(bad.exit_code, 2);
+}
+
+}  // namespace
