@@ -212,9 +212,7 @@ void RunWriter::add_submap(const Submap& submap, double timestamp) {
     s.cloud = write(base + ".pcd", format_pcd_xyzrgb(submap.cloud));
     s.obstacles = write(base + "_obstacles.pcd", format_pcd_xyz(submap.obstacles));
     if (submap.octree) {
-        std::ostringstream os;
-        submap.octree->writeBinaryConst(os);
-        s.octomap = write(base + ".bt", os.str());
+        s.octomap = write(base + ".bt", octree_to_bt(*submap.octree));
     }
     s.points = submap.cloud.size();
     s.obstacle_points = submap.obstacles.size();
@@ -387,12 +385,7 @@ Submap Dataset::load_submap(int run, int index) const {
     if (!s.octomap.empty()) {
         const fs::path bt = dir_ / s.octomap;
         if (!fs::exists(bt)) throw DatasetError(bt, "missing OctoMap file");
-        std::istringstream in(read_file(bt));
-        auto tree = std::make_shared<octomap::OcTree>(0.1);
-        if (!tree->readBinary(in) || tree->size() == 0) {
-            throw DatasetError(bt, "unreadable or truncated OctoMap (.bt)");
-        }
-        out.octree = tree;
+        out.octree = octree_from_bt(read_file(bt), bt.string());
     }
     out.T_world_submap_gt = r.gt[index].T;
     out.T_world_submap_odom = r.odometry[index].T;

@@ -5,7 +5,10 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <unordered_map>
+
+#include "dataset/io.hpp"
 
 namespace maptune::dataset {
 
@@ -180,6 +183,54 @@ std::shared_ptr<octomap::OcTree> build_octree(const std::vector<ColoredPoint>& c
                            /*lazy_eval=*/false, /*discretize=*/true);
     tree->updateInnerOccupancy();
     tree->prune();
+    return tree;
+}
+
+std::string octree_to_bt(const octomap::OcTree& tree) {
+    std::ostringstream s;
+    s << "# Octomap OcTree binary file\n# (feel free to add / change comments, but leave the first "
+         "line as it is!)\n#\n";
+    s << "id " << tree.getTreeType() << "\n";
+    s << "size " << tree.size() << "\n";
+    s << "res " << tree.getResolution() << "\n";
+    s << "data\n";
+    // Qualified call: the header template (compiled here) instead of the library's copy.
+    tree.octomap::OccupancyOcTreeBase<octomap::OcTreeNode>::writeBinaryData(s);
+    return s.str();
+}
+
+std::shared_ptr<octomap::OcTree> octree_from_bt(const std::string& bytes, const std::string& file) {
+    std::istringstream in(bytes);
+    std::string line;
+    if (!std::getline(in, line) || line.rfind("# Octomap OcTree binary file", 0) != 0) {
+        throw DatasetError(file, "not an OctoMap binary file (.bt)");
+    }
+    std::string id;
+    double res = 0;
+    std::size_t size = 0;
+    bool data = false;
+    while (std::getline(in, line)) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.empty() || line[0] == '#') continue;
+        std::istringstream ls(line);
+        std::string key;
+        ls >> key;
+        if (key == "id") ls >> id;
+        else if (key == "size") ls >> size;
+        else if (key == "res") ls >> res;
+        else if (key == "data") { data = true; break; }
+    }
+    if (!data) throw DatasetError(file, "truncated OctoMap header (no 'data' line)");
+    if (id != "OcTree") throw DatasetError(file, "OctoMap tree type '" + id + "' is not OcTree");
+    if (!(res > 0)) throw DatasetError(file, "OctoMap resolution missing or not positive");
+    auto tree = std::make_shared<octomap::OcTree>(res);
+    if (size > 0) {
+        tree->octomap::OccupancyOcTreeBase<octomap::OcTreeNode>::readBinaryData(in);
+        if (!in || tree->size() != size) {
+            throw DatasetError(file, "truncated OctoMap data: header announces " + std::to_string(size) +
+                                         " nodes, read " + std::to_string(tree->size()));
+        }
+    }
     return tree;
 }
 

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "dataset/submap.hpp"
@@ -47,6 +48,11 @@ std::vector<Eigen::Vector3f> detect_obstacles_curvature(const std::vector<Colore
 std::shared_ptr<octomap::OcTree> build_octree(const std::vector<ColoredPoint>& cloud,
                                               const Eigen::Vector3f& origin, double resolution,
                                               double max_range = -1);
+
+// Standard OctoMap binary (.bt) bytes, written and read without the library's debug
+// chatter on stderr. from_bt throws DatasetError naming `file` when bytes are bad.
+std::string octree_to_bt(const octomap::OcTree& tree);
+std::shared_ptr<octomap::OcTree> octree_from_bt(const std::string& bytes, const std::string& file);
 
 // Distance from the submap origin to its farthest point (SPEC §2 `d`).
 double submap_size(const std::vector<ColoredPoint>& cloud);

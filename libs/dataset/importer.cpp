@@ -115,12 +115,7 @@ std::string import_dataset(const ImportInput& in, const ImportOptions& o, const 
             s.obstacles = detect_obstacles_curvature(s.cloud, cs);
         }
         if (!in.octomaps.empty()) {
-            auto tree = std::make_shared<octomap::OcTree>(0.1);
-            std::istringstream bt(read_file(in.octomaps[i]));
-            if (!tree->readBinary(bt) || tree->size() == 0) {
-                throw DatasetError(in.octomaps[i], "unreadable or truncated OctoMap (.bt)");
-            }
-            s.octree = tree;
+            s.octree = octree_from_bt(read_file(in.octomaps[i]), in.octomaps[i].string());
         } else {
             s.octree = build_octree(s.cloud, o.sensor_origin, o.octomap_resolution_m, o.max_range_m);
         }

@@ -63,6 +63,29 @@ void digit_text(Image& img, int x, int y, int value, std::uint8_t r, std::uint8_
     }
 }
 
+// Andrew's monotone chain; closed polygon (first point repeated).
+std::vector<Eigen::Vector2d> convex_hull(std::vector<Eigen::Vector2d> p) {
+    std::sort(p.begin(), p.end(), [](const auto& a, const auto& b) {
+        return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+    });
+    if (p.size() < 3) return p;
+    auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+        return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+    };
+    std::vector<Eigen::Vector2d> h(2 * p.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        while (k >= 2 && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+        h[k++] = p[i];
+    }
+    for (std::size_t i = p.size() - 1, t = k + 1; i > 0; --i) {
+        while (k >= t && cross(h[k - 2], h[k - 1], p[i - 1]) <= 0) --k;
+        h[k++] = p[i - 1];
+    }
+    h.resize(k);
+    return h;
+}
+
 }  // namespace
 
 void write_png(const fs::path& file, const Image& img) {
@@ -99,17 +122,13 @@ Image render_run_topdown(const Dataset& ds, int run, int width_px) {
     std::vector<std::vector<Eigen::Vector2d>> outlines;
     for (std::size_t i = 0; i < r.submaps.size(); ++i) {
         const Submap s = ds.load_submap(run, static_cast<int>(i));
-        double xmin = 1e9, xmax = -1e9, ymin = 1e9, ymax = -1e9;
+        std::vector<Eigen::Vector2d> flat;
         for (const auto& q : s.cloud) {
             const Eigen::Vector3d p = s.T_world_submap_gt * Eigen::Vector3d(q.x, q.y, q.z);
             pts.push_back({p, q});
-            xmin = std::min(xmin, double(q.x)); xmax = std::max(xmax, double(q.x));
-            ymin = std::min(ymin, double(q.y)); ymax = std::max(ymax, double(q.y));
+            flat.push_back(p.head<2>());
         }
-        std::vector<Eigen::Vector2d> o;
-        for (auto [x, y] : {std::pair{xmin, ymin}, {xmax, ymin}, {xmax, ymax}, {xmin, ymax}, {xmin, ymin}}) {
-            o.push_back((s.T_world_submap_gt * Eigen::Vector3d(x, y, 0)).head<2>());
-        }
+        const std::vector<Eigen::Vector2d> o = convex_hull(flat);
         outlines.push_back(o);
     }
     double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;

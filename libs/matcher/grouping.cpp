@@ -87,7 +87,10 @@ RigidRansacResult ransac_rigid(const Eigen::Matrix3Xf& points_a, const Eigen::Ma
     int best = 0;
     Eigen::Matrix4f best_T = Eigen::Matrix4f::Identity();
     const float min_area = static_cast<float>(inlier_threshold_m * inlier_threshold_m * 1e-2);
-    for (int it = 0; it < std::max(1, iterations); ++it) {
+    // Adaptive stop: enough iterations to draw one all-inlier sample with 99.9 % probability
+    // at the best inlier ratio so far, capped by `iterations`.
+    long long needed = std::max(1, iterations);
+    for (long long it = 0; it < needed; ++it) {
         if ((it & 63) == 0 && deadline.expired()) {
             out.timed_out = true;
             return out;
@@ -113,6 +116,13 @@ RigidRansacResult ransac_rigid(const Eigen::Matrix3Xf& points_a, const Eigen::Ma
             best = c;
             best_T = T;
             if (best == n) break;
+            const double w = static_cast<double>(best) / n;
+            const double p_fail = 1.0 - w * w * w;
+            if (p_fail > 0 && p_fail < 1) {
+                const double k = std::log(1e-3) / std::log(p_fail);
+                needed = std::min<long long>(needed, static_cast<long long>(std::ceil(k)) + 1);
+                needed = std::max(needed, it + 1);
+            }
         }
     }
     if (best < 3) return out;

@@ -130,7 +130,7 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
         pb.col(k) = b.keypoints.col(c.b);
     }
     const double ransac_thr =
-        settings.ransac_inlier_threshold_m > 0 ? settings.ransac_inlier_threshold_m : params.v_TF;
+        settings.ransac_inlier_threshold_m > 0 ? settings.ransac_inlier_threshold_m : params.v_K;
     const auto ransac = ransac_rigid(pa, pb, ransac_thr, settings.ransac_iterations, seed, deadline);
     if (ransac.timed_out) return finish(r, MatchStatus::kTimeout, "pair time limit in RANSAC", t0);
     r.ransac_inliers = static_cast<int>(ransac.inliers.size());
@@ -138,7 +138,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     Eigen::Matrix4f T = ransac.T_a_b;
     if (settings.icp_enabled) {
         const double max_corr =
-            settings.icp_max_correspondence_m > 0 ? settings.icp_max_correspondence_m : params.v_TF;
+            settings.icp_max_correspondence_m > 0 ? settings.icp_max_correspondence_m
+                                                  : 2.0 * params.v_K;
         const auto icp = refine_icp(a, b, T, max_corr, settings.icp_max_iterations);
         if (icp.ok) {
             T = icp.T_a_b;

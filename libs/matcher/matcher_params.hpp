@@ -66,10 +66,11 @@ struct MatcherSettings {
     int line_ransac_iterations = 100;
 
     // Step 9: RANSAC rigid transform on the largest group, then ICP on the filtered clouds.
-    int ransac_iterations = 1000;
-    double ransac_inlier_threshold_m = 0.0;  // <= 0: use v_TF
+    int ransac_iterations = 10000;  // cap; stops earlier at 99.9 % confidence
+    // Corresponding keypoints sit up to ~v_K/2 apart (voxel thinning), hence v_K-based defaults.
+    double ransac_inlier_threshold_m = 0.0;  // <= 0: use v_K
     int icp_max_iterations = 30;
-    double icp_max_correspondence_m = 0.0;   // <= 0: use v_TF
+    double icp_max_correspondence_m = 0.0;   // <= 0: use 2 v_K
     double icp_voxel_m = 0.0;                // > 0: ICP clouds voxelized at this leaf
     bool icp_enabled = true;
 

@@ -53,7 +53,10 @@ TEST_F(ScenePair, BaselineMatchesWithSmallError) {
                                           << " groups=" << r.groups;
     EXPECT_TRUE(r.matched);
     EXPECT_LT(rotation_error_deg(r.T_a_b, reference()), 1.0);
-    EXPECT_LT((r.T_a_b.topRightCorner<3, 1>() - reference().topRightCorner<3, 1>()).norm(), 0.05);
+    EXPECT_LT((r.T_a_b.topRightCorner<3, 1>() - reference().topRightCorner<3, 1>()).norm(), 0.05)
+        << "group=" << r.group_size << " inliers=" << r.ransac_inliers << " groups=" << r.groups
+        << " corr=" << r.correspondences << " kp=" << r.keypoints_a << "/" << r.keypoints_b
+        << " icp=" << r.icp_fitness << "\n" << r.T_a_b << "\nref\n" << reference();
 }
 
 TEST_F(ScenePair, DeterministicGivenSeed) {

@@ -1,0 +1,352 @@
+#include "bo/optimizer.hpp"
+
+#include <LBFGSB.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+
+namespace maptune::bo {
+
+namespace {
+
+std::uint64_t mix(std::uint64_t a, std::uint64_t b) {
+    // splitmix64 of a combined key: independent streams per (seed, ask, purpose).
+    std::uint64_t z = a + 0x9e3779b97f4a7c15ULL * (b + 1);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+const double kDuplicateTolerance = 1e-9;  // max-norm distance in GP input space
+
+// Negative acquisition over u for LBFGSpp; integer coordinates are held fixed by their bounds
+// and get zero gradient because the model input is piecewise constant in them.
+struct AcquisitionObjective {
+    const gp::GaussianProcess& gp;
+    const SearchSpace& space;
+    const AcquisitionContext& ctx;
+    double best_value = -std::numeric_limits<double>::infinity();
+    Eigen::VectorXd best_u;
+
+    double operator()(const Eigen::VectorXd& u, Eigen::VectorXd& grad) {
+        const Eigen::VectorXd g = space.to_model_input(u);
+        Eigen::VectorXd acq_grad;
+        const double value = acquisition_value(ctx, gp.predict_with_gradient(g), &acq_grad);
+        grad = -acq_grad;
+        for (int j = 0; j < space.dim(); ++j) {
+            if (space.specs()[static_cast<std::size_t>(j)].is_integer) grad(j) = 0.0;
+        }
+        if (!std::isfinite(value)) {
+            grad.setZero();
+            return 1e300;
+        }
+        if (value > best_value) {
+            best_value = value;
+            best_u = u;
+        }
+        return -value;
+    }
+};
+
+}  // namespace
+
+Optimizer::Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options)
+    : space_(std::move(specs)),
+      options_(options),
+      design_(space_.dim(), mix(options.seed, 1)),
+      hp_(gp::Hyperparameters::defaults(space_.dim())) {}
+
+Optimizer::Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options,
+                     const std::vector<Observation>& history)
+    : Optimizer(std::move(specs), options) {
+    for (const Observation& o : history) add_observation(o);
+    // The design continues where a run with this history would have continued.
+    design_index_ = history.size();
+}
+
+int Optimizer::initial_points() const {
+    return options_.initial_points > 0 ? options_.initial_points : std::max(5, 2 * space_.dim());
+}
+
+void Optimizer::add_start_point(const std::vector<double>& values) {
+    start_points_.push_back(space_.canonical(values));
+}
+
+Optimizer::Point Optimizer::make_point(const Eigen::VectorXd& u) const {
+    Point p;
+    p.u = space_.snap(u);
+    p.g = space_.to_model_input(p.u);
+    return p;
+}
+
+bool Optimizer::is_taken(const Eigen::VectorXd& g) const {
+    auto same = [&](const Point& p) { return (p.g - g).cwiseAbs().maxCoeff() < kDuplicateTolerance; };
+    if (std::any_of(observed_points_.begin(), observed_points_.end(), same)) return true;
+    return std::any_of(pending_.begin(), pending_.end(), [&](const auto& kv) { return same(kv.second); });
+}
+
+bool Optimizer::near_failure(const Eigen::VectorXd& g) const {
+    const double r2 = options_.failure_radius * options_.failure_radius;
+    for (std::size_t i = 0; i < observations_.size(); ++i) {
+        if (observations_[i].failed && (observed_points_[i].g - g).squaredNorm() < r2) return true;
+    }
+    return false;
+}
+
+Eigen::VectorXd Optimizer::next_design_point() {
+    Eigen::VectorXd fallback;
+    for (int tries = 0; tries < 1000; ++tries) {
+        const Point p = make_point(design_.point(design_index_++));
+        if (!is_taken(p.g) && !near_failure(p.g)) return p.u;
+        if (fallback.size() == 0 && !is_taken(p.g)) fallback = p.u;
+    }
+    // A tiny, exhausted integer space: give the least bad point rather than nothing.
+    return fallback.size() > 0 ? fallback : make_point(design_.point(design_index_++)).u;
+}
+
+Optimizer::Model Optimizer::build_model() {
+    const int d = space_.dim();
+    std::vector<std::size_t> ok, failed;
+    for (std::size_t i = 0; i < observations_.size(); ++i) {
+        (observations_[i].failed ? failed : ok).push_back(i);
+    }
+    double worst = std::numeric_limits<double>::infinity();
+    double best = -std::numeric_limits<double>::infinity();
+    for (std::size_t i : ok) {
+        worst = std::min(worst, internal(observations_[i].value));
+        best = std::max(best, internal(observations_[i].value));
+    }
+    // Failures enter the model at the worst observed value so that the surrogate itself
+    // steers away from their region (besides the hard exclusion radius).
+    const auto n = static_cast<Eigen::Index>(ok.size() + failed.size());
+    Eigen::MatrixXd x(d, n);
+    Eigen::VectorXd y(n);
+    Eigen::Index k = 0;
+    for (std::size_t i : ok) {
+        x.col(k) = observed_points_[i].g;
+        y(k++) = internal(observations_[i].value);
+    }
+    for (std::size_t i : failed) {
+        x.col(k) = observed_points_[i].g;
+        y(k++) = worst;
+    }
+
+    gp::GaussianProcess model(d, options_.gp);
+    model.set_hyperparameters(hp_);
+    model.set_data(x, y);
+    const auto nu = static_cast<std::size_t>(n);
+    const bool refit = nu <= 100 || last_fit_n_ == 0 ||
+                       static_cast<double>(nu) >= (1.0 + options_.refit_growth) * static_cast<double>(last_fit_n_);
+    if (refit && n >= 2) {
+        hp_ = model.fit(mix(options_.seed, 1000 + nu)).hyperparameters;
+        last_fit_n_ = nu;
+    }
+    Model m{std::move(model), best};
+    // Kriging believer: pending points enter with their predicted value, which shrinks the
+    // variance around them so that the next proposal goes elsewhere.
+    for (const auto& [id, p] : pending_) {
+        Eigen::VectorXd mean, var;
+        m.gp.predict(p.g, mean, var);
+        m.gp.append(p.g, mean(0));
+        m.incumbent = std::max(m.incumbent, mean(0));
+    }
+    return m;
+}
+
+Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_t seed) {
+    const int d = space_.dim();
+    AcquisitionContext ctx;
+    ctx.kind = options_.acquisition;
+    ctx.kappa = options_.ucb_kappa;
+    ctx.incumbent = model.incumbent;
+    if (ctx.kind == Acquisition::ucb_schedule) {
+        const double t = static_cast<double>(observations_.size() + pending_.size() + 1);
+        ctx.kappa = srinivas_kappa(d, t, options_.schedule_delta, options_.schedule_scale);
+    }
+
+    // Candidates: a freshly scrambled Halton set plus Gaussian perturbations of the best
+    // observations at several scales (exploitation needs points near the incumbent).
+    std::mt19937_64 rng(seed);
+    const Eigen::Index n_total = std::max(options_.candidates, 1);
+    const auto n_local = static_cast<Eigen::Index>(options_.local_fraction * static_cast<double>(n_total));
+    const Eigen::Index n_global = n_total - n_local;
+    const ScrambledHalton halton(d, mix(seed, 2));
+    Eigen::MatrixXd cand_u(d, n_total);
+    cand_u.leftCols(n_global) = halton.points(0, n_global);
+
+    std::vector<std::size_t> order;
+    for (std::size_t i = 0; i < observations_.size(); ++i) {
+        if (!observations_[i].failed) order.push_back(i);
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return internal(observations_[a].value) > internal(observations_[b].value);
+    });
+    order.resize(std::min<std::size_t>(order.size(), 5));
+    std::normal_distribution<double> normal;
+    const double scales[3] = {0.01, 0.05, 0.15};
+    for (Eigen::Index i = 0; i < n_local; ++i) {
+        if (order.empty()) {
+            cand_u.col(n_global + i) = halton.point(static_cast<std::uint64_t>(n_global + i));
+            continue;
+        }
+        const Eigen::VectorXd& center = observed_points_[order[static_cast<std::size_t>(i) % order.size()]].u;
+        const double s = scales[i % 3];
+        for (int j = 0; j < d; ++j) cand_u(j, n_global + i) = std::clamp(center(j) + s * normal(rng), 0.0, 1.0);
+    }
+    Eigen::MatrixXd cand_g(d, n_total);
+    for (Eigen::Index i = 0; i < n_total; ++i) {
+        cand_u.col(i) = space_.snap(cand_u.col(i));
+        cand_g.col(i) = space_.to_model_input(cand_u.col(i));
+    }
+    Eigen::VectorXd mean, var;
+    model.gp.predict(cand_g, mean, var);
+    Eigen::VectorXd acq = acquisition_values(ctx, mean, var);
+    const double minus_inf = -std::numeric_limits<double>::infinity();
+    for (Eigen::Index i = 0; i < n_total; ++i) {
+        if (!std::isfinite(acq(i)) || is_taken(cand_g.col(i)) || near_failure(cand_g.col(i))) acq(i) = minus_inf;
+    }
+    std::vector<Eigen::Index> idx(static_cast<std::size_t>(n_total));
+    std::iota(idx.begin(), idx.end(), 0);
+    const auto n_starts = std::min<std::size_t>(static_cast<std::size_t>(std::max(options_.polish_starts, 1)), idx.size());
+    std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n_starts), idx.end(),
+                      [&](Eigen::Index a, Eigen::Index b) { return acq(a) > acq(b); });
+
+    Eigen::VectorXd best_u = cand_u.col(idx.front());
+    double best_value = acq(idx.front());
+
+    LBFGSpp::LBFGSBParam<double> param;
+    param.max_iterations = options_.polish_iterations;
+    param.epsilon = 1e-6;
+    param.past = 1;
+    param.delta = 1e-10;
+    param.max_linesearch = 20;
+    LBFGSpp::LBFGSBSolver<double> solver(param);
+    for (std::size_t s = 0; s < n_starts; ++s) {
+        const Eigen::Index c = idx[s];
+        if (!std::isfinite(acq(c))) break;
+        Eigen::VectorXd lb = Eigen::VectorXd::Zero(d), ub = Eigen::VectorXd::Ones(d);
+        for (int j = 0; j < d; ++j) {
+            if (space_.specs()[static_cast<std::size_t>(j)].is_integer) lb(j) = ub(j) = cand_u(j, c);
+        }
+        AcquisitionObjective objective{model.gp, space_, ctx};
+        Eigen::VectorXd u = cand_u.col(c);
+        double fx = 0.0;
+        try {
+            solver.minimize(objective, u, fx, lb, ub);
+        } catch (const std::exception&) {
+            // Line search gave up; the best point it saw is still usable.
+        }
+        if (objective.best_u.size() == 0 || objective.best_value <= best_value) continue;
+        const Point p = make_point(objective.best_u);
+        if (is_taken(p.g) || near_failure(p.g)) continue;
+        best_value = objective.best_value;
+        best_u = p.u;
+    }
+    if (!std::isfinite(best_value)) {
+        // Every candidate was taken or excluded (tiny integer space): fall back to the design.
+        return next_design_point();
+    }
+    return best_u;
+}
+
+std::vector<Proposal> Optimizer::ask(int q) {
+    std::vector<Proposal> out;
+    std::optional<Model> model;
+    const bool any_success = std::any_of(observations_.begin(), observations_.end(),
+                                         [](const Observation& o) { return !o.failed; });
+    for (int i = 0; i < q; ++i) {
+        Proposal proposal;
+        Point point;
+        if (!start_points_.empty()) {
+            point = make_point(space_.from_values(start_points_.front()));
+            start_points_.pop_front();
+            proposal.origin = "start";
+            if (is_taken(point.g)) {
+                --i;  // already known: the next source fills this slot
+                continue;
+            }
+        } else if (observations_.size() + pending_.size() < static_cast<std::size_t>(initial_points()) ||
+                   !any_success) {
+            point = make_point(next_design_point());
+            proposal.origin = "initial";
+        } else {
+            if (!model) model = build_model();
+            // Seeded by the number of points so far, so a restored optimizer draws the same candidates.
+            const auto key = static_cast<std::uint64_t>(observations_.size() + pending_.size());
+            point = make_point(maximize_acquisition(*model, mix(options_.seed, 2 * key + 11)));
+            proposal.origin = "model";
+        }
+        if (model) {
+            // Every proposal of this batch becomes a fantasy for the following ones.
+            Eigen::VectorXd mean, var;
+            model->gp.predict(point.g, mean, var);
+            model->gp.append(point.g, mean(0));
+            model->incumbent = std::max(model->incumbent, mean(0));
+        }
+        proposal.id = next_id_++;
+        proposal.values = space_.to_values(point.u);
+        pending_.emplace(proposal.id, point);
+        out.push_back(std::move(proposal));
+    }
+    return out;
+}
+
+bool Optimizer::resolve(std::uint64_t id, const Observation& observation) {
+    const auto it = pending_.find(id);
+    if (it == pending_.end()) return false;
+    observed_points_.push_back(it->second);
+    observations_.push_back(observation);
+    pending_.erase(it);
+    return true;
+}
+
+bool Optimizer::tell(std::uint64_t id, double value) {
+    const auto it = pending_.find(id);
+    if (it == pending_.end()) return false;
+    Observation o;
+    o.values = space_.to_values(it->second.u);
+    if (std::isfinite(value)) {
+        o.value = value;
+    } else {
+        o.failed = true;
+        o.reason = "non-finite value";
+    }
+    return resolve(id, o);
+}
+
+bool Optimizer::tell_failed(std::uint64_t id, const std::string& reason) {
+    const auto it = pending_.find(id);
+    if (it == pending_.end()) return false;
+    Observation o;
+    o.values = space_.to_values(it->second.u);
+    o.failed = true;
+    o.reason = reason;
+    return resolve(id, o);
+}
+
+bool Optimizer::cancel(std::uint64_t id) { return pending_.erase(id) > 0; }
+
+void Optimizer::add_observation(const Observation& observation) {
+    Observation o = observation;
+    o.values = space_.canonical(observation.values);
+    if (!o.failed && !std::isfinite(o.value)) {
+        o.failed = true;
+        o.reason = "non-finite value";
+    }
+    observed_points_.push_back(make_point(space_.from_values(o.values)));
+    observations_.push_back(std::move(o));
+}
+
+std::optional<Observation> Optimizer::best() const {
+    std::optional<Observation> out;
+    for (const Observation& o : observations_) {
+        if (o.failed) continue;
+        if (!out || internal(o.value) > internal(out->value)) out = o;
+    }
+    return out;
+}
+
+}  // namespace maptune::bo

@@ -1,0 +1,116 @@
+#pragma once
+// Bayesian optimizer in ask/tell form (SPEC §6). It never calls the objective: a caller asks
+// for q parameter sets, evaluates them wherever and whenever it likes, and tells the values
+// (or the failures) back by id. Everything is deterministic given the seed and the order of
+// calls; the state can be rebuilt from the list of observations after a restart.
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bo/acquisition.hpp"
+#include "bo/quasi_random.hpp"
+#include "bo/space.hpp"
+#include "gp/gaussian_process.hpp"
+
+namespace maptune::bo {
+
+enum class Direction { minimize, maximize };
+
+struct OptimizerOptions {
+    Direction direction = Direction::maximize;  // the matcher's score p: larger is better
+    // Default chosen from the regret benchmarks (docs/optimizer.md, BENCHMARKS.md).
+    Acquisition acquisition = Acquisition::log_ei;
+    double ucb_kappa = 5.0;        // fixed UCB weight; the thesis used 5
+    double schedule_delta = 0.1;   // Srinivas δ
+    double schedule_scale = 0.2;   // Srinivas et al. scale β_t down by 5 in their experiments
+    int initial_points = 0;        // quasi-random design size; 0 = max(5, 2·d)
+    int candidates = 2000;         // quasi-random acquisition candidates per proposal
+    double local_fraction = 0.25;  // share of candidates drawn around the best observations
+    int polish_starts = 5;         // L-BFGS-B polishes from the best candidates
+    int polish_iterations = 30;
+    double failure_radius = 0.05;  // no proposals this close (unit cube, Euclidean) to a failure
+    double refit_growth = 0.05;    // above 100 observations, refit when n grew by this fraction
+    gp::GpOptions gp;
+    std::uint64_t seed = 0;
+};
+
+struct Proposal {
+    std::uint64_t id = 0;
+    std::vector<double> values;  // one per parameter, integers exact
+    std::string origin;          // "start", "initial", "model"
+};
+
+struct Observation {
+    std::vector<double> values;
+    double value = 0.0;  // objective value (ignored when failed)
+    bool failed = false;
+    std::string reason;  // why it failed (crash, timeout, ...)
+};
+
+class Optimizer {
+public:
+    Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options = {});
+    // Rebuilds the state from earlier observations (resume after a restart).
+    Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options,
+              const std::vector<Observation>& history);
+
+    // Queues a parameter set (e.g. the hand-tuned baseline) to be proposed before the design.
+    void add_start_point(const std::vector<double>& values);
+    // q proposals, none equal to an observed, pending or other proposed point.
+    std::vector<Proposal> ask(int q = 1);
+    // False if id is not pending (unknown or already told).
+    bool tell(std::uint64_t id, double value);
+    bool tell_failed(std::uint64_t id, const std::string& reason);
+    // Withdraws a pending proposal without a result (its worker vanished before evaluating;
+    // a timeout is a failure and goes to tell_failed instead).
+    bool cancel(std::uint64_t id);
+    // An observation made elsewhere (the sample database already had it).
+    void add_observation(const Observation& observation);
+
+    const SearchSpace& space() const { return space_; }
+    const OptimizerOptions& options() const { return options_; }
+    const std::vector<Observation>& observations() const { return observations_; }
+    std::size_t pending() const { return pending_.size(); }
+    std::optional<Observation> best() const;
+    const gp::Hyperparameters& hyperparameters() const { return hp_; }
+    int initial_points() const;
+
+private:
+    struct Point {
+        Eigen::VectorXd u;  // unit cube, integers snapped
+        Eigen::VectorXd g;  // GP input
+    };
+    struct Model {
+        gp::GaussianProcess gp;
+        double incumbent;  // best internal value incl. fantasies
+    };
+
+    Point make_point(const Eigen::VectorXd& u) const;
+    double internal(double value) const {
+        return options_.direction == Direction::maximize ? value : -value;
+    }
+    bool is_taken(const Eigen::VectorXd& g) const;
+    bool near_failure(const Eigen::VectorXd& g) const;
+    Eigen::VectorXd next_design_point();
+    Model build_model();
+    Eigen::VectorXd maximize_acquisition(const Model& model, std::uint64_t seed);
+    bool resolve(std::uint64_t id, const Observation& observation);
+
+    SearchSpace space_;
+    OptimizerOptions options_;
+    ScrambledHalton design_;
+    std::uint64_t design_index_ = 0;
+    std::deque<std::vector<double>> start_points_;
+    std::vector<Observation> observations_;
+    std::vector<Point> observed_points_;  // parallel to observations_
+    std::map<std::uint64_t, Point> pending_;
+    std::uint64_t next_id_ = 1;
+    gp::Hyperparameters hp_;
+    std::size_t last_fit_n_ = 0;
+};
+
+}  // namespace maptune::bo

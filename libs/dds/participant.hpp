@@ -1,0 +1,153 @@
+#pragma once
+// A DDS participant created from a profile that keeps traffic on loopback unless the user
+// names another profile, plus typed writers and readers. This is the only layer that
+// includes Fast DDS headers; services use it and the generated types in "maptune.h".
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+namespace maptune::dds {
+
+class DdsError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+inline constexpr int kMaxDomainId = 232;  // larger ids overflow the RTPS port range
+
+struct ParticipantOptions {
+    int domain_id = 0;           // 0..232
+    std::string profiles_file;   // Fast DDS XML; empty: the built-in loopback profile
+    std::string profile = "maptune_loopback";  // participant profile in that XML
+    std::string name = "maptune";
+};
+
+// Delivery semantics of a topic.
+enum class TopicQos {
+    kReliable,  // reliable, volatile, keep last 1000: requests, tasks, results
+    kLatched,   // reliable, transient-local, keep last 1 per key: late joiners get the latest
+    kBestEffort,  // heartbeats
+};
+
+void apply_qos(TopicQos qos, eprosima::fastdds::dds::DataWriterQos& w);
+void apply_qos(TopicQos qos, eprosima::fastdds::dds::DataReaderQos& r);
+
+template <class T>
+class Writer {
+public:
+    explicit Writer(eprosima::fastdds::dds::DataWriter* w = nullptr) : writer_(w) {}
+    // False when the sample could not be queued (e.g. history full past its blocking time).
+    bool write(const T& sample) const {
+        return writer_ != nullptr && writer_->write(const_cast<T*>(&sample));
+    }
+    int matched() const {
+        eprosima::fastdds::dds::PublicationMatchedStatus s;
+        if (writer_ == nullptr || writer_->get_publication_matched_status(s) != ReturnOk()) {
+            return 0;
+        }
+        return s.current_count;
+    }
+    // Blocks until at least `n` readers matched or the timeout passes.
+    bool wait_for_readers(int n, std::chrono::milliseconds timeout) const;
+
+private:
+    static eprosima::fastrtps::types::ReturnCode_t ReturnOk() {
+        return eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
+    }
+    eprosima::fastdds::dds::DataWriter* writer_;
+};
+
+// Calls `on_sample` on a Fast DDS thread for every valid sample taken.
+template <class T>
+class ReaderListener : public eprosima::fastdds::dds::DataReaderListener {
+public:
+    explicit ReaderListener(std::function<void(const T&)> on_sample)
+        : on_sample_(std::move(on_sample)) {}
+    void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
+        T sample;
+        eprosima::fastdds::dds::SampleInfo info;
+        while (reader->take_next_sample(&sample, &info) ==
+               eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+            if (info.valid_data) on_sample_(sample);
+        }
+    }
+
+private:
+    std::function<void(const T&)> on_sample_;
+};
+
+class Participant {
+public:
+    // Throws DdsError when the domain id is out of range, the XML does not load or the
+    // profile does not exist (never falls back to Fast DDS's every-interface default).
+    explicit Participant(const ParticipantOptions& options);
+    ~Participant();
+    Participant(const Participant&) = delete;
+    Participant& operator=(const Participant&) = delete;
+
+    int domain_id() const { return domain_id_; }
+
+    template <class PubSubType>
+    Writer<typename PubSubType::type> writer(const std::string& topic, TopicQos qos) {
+        auto* t = topic_for(topic, new PubSubType());
+        eprosima::fastdds::dds::DataWriterQos wq = publisher_->get_default_datawriter_qos();
+        apply_qos(qos, wq);
+        auto* w = publisher_->create_datawriter(t, wq);
+        if (w == nullptr) throw DdsError("cannot create a writer on topic '" + topic + "'");
+        return Writer<typename PubSubType::type>(w);
+    }
+
+    template <class PubSubType>
+    void reader(const std::string& topic, TopicQos qos,
+                std::function<void(const typename PubSubType::type&)> on_sample) {
+        auto* t = topic_for(topic, new PubSubType());
+        eprosima::fastdds::dds::DataReaderQos rq = subscriber_->get_default_datareader_qos();
+        apply_qos(qos, rq);
+        auto listener =
+            std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample));
+        auto* r = subscriber_->create_datareader(t, rq, listener.get());
+        if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'");
+        std::lock_guard<std::mutex> lock(mutex_);
+        listeners_.push_back(std::move(listener));
+    }
+
+private:
+    // Registers the type on first use (taking ownership of `type`) and returns the topic.
+    eprosima::fastdds::dds::Topic* topic_for(const std::string& topic,
+                                            eprosima::fastdds::dds::TopicDataType* type);
+
+    int domain_id_ = 0;
+    eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+    eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+    eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+    std::mutex mutex_;
+    std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+    std::vector<std::unique_ptr<eprosima::fastdds::dds::DataReaderListener>> listeners_;
+};
+
+template <class T>
+bool Writer<T>::wait_for_readers(int n, std::chrono::milliseconds timeout) const {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (matched() < n) {
+        if (std::chrono::steady_clock::now() >= deadline) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return true;
+}
+
+}  // namespace maptune::dds

@@ -1,0 +1,290 @@
+// Dataset format, loader and views, simulator determinism, import (incl. the real
+// Stanford bunny scans), bad input. Tiny worlds keep the suite fast.
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <fstream>
+
+#include "dataset/dataset.hpp"
+#include "dataset/geometry.hpp"
+#include "dataset/importer.hpp"
+#include "dataset/render.hpp"
+#include "dataset/simulator.hpp"
+
+namespace fs = std::filesystem;
+using namespace maptune::dataset;
+
+namespace {
+
+fs::path temp_root() {
+    static const fs::path root = [] {
+        fs::path p = fs::temp_directory_path() / ("maptune_dataset_test_" + std::to_string(::getpid()));
+        fs::remove_all(p);
+        fs::create_directories(p);
+        return p;
+    }();
+    return root;
+}
+
+struct Cleanup : ::testing::Environment {
+    void TearDown() override { fs::remove_all(temp_root()); }
+};
+const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new Cleanup);
+
+// One shared tiny lab dataset (generated once for the whole suite).
+const fs::path& lab_tiny() {
+    static const fs::path p = [] {
+        fs::path out = temp_root() / "lab_tiny";
+        SimConfig c = sim_preset("lab-tiny");
+        c.threads = 2;
+        generate_dataset(c, out);
+        return out;
+    }();
+    return p;
+}
+
+template <typename F>
+std::string error_of(F&& f) {
+    try {
+        f();
+    } catch (const DatasetError& e) {
+        return e.what();
+    } catch (const std::invalid_argument& e) {
+        return e.what();
+    }
+    return "";
+}
+
+std::map<std::string, std::string> all_files(const fs::path& dir) {
+    std::map<std::string, std::string> out;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        if (e.is_regular_file()) out[fs::relative(e.path(), dir).string()] = read_file(e.path());
+    }
+    return out;
+}
+
+void put(const fs::path& p, const std::string& s) { std::ofstream(p, std::ios::binary | std::ios::trunc) << s; }
+
+}  // namespace
+
+TEST(SimulatorTest, SameSeedGivesByteIdenticalDatasetWhateverTheThreads) {
+    SimConfig c = sim_preset("lab-tiny");
+    c.threads = 1;
+    const fs::path a = temp_root() / "det_a";
+    const std::string id_a = generate_dataset(c, a);
+    const std::string id_b = Dataset::open(lab_tiny()).manifest().id;  // 2 threads
+    EXPECT_EQ(id_a, id_b);
+    EXPECT_EQ(all_files(a), all_files(lab_tiny()));
+    c.seed = 2;
+    EXPECT_NE(generate_dataset(c, temp_root() / "det_c"), id_a);
+}
+
+TEST(SimulatorTest, UnknownPresetIsAnError) {
+    EXPECT_NE(error_of([] { sim_preset("mars"); }).find("unknown preset 'mars'"), std::string::npos);
+    SimConfig c = sim_preset("lab-tiny");
+    c.world = "mars";
+    const fs::path out = temp_root() / "mars";
+    EXPECT_NE(error_of([&] { generate_dataset(c, out); }).find("unknown world 'mars'"), std::string::npos);
+    EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {
+    const fs::path out = temp_root() / "fail";
+    {
+        DatasetWriter w(out, "x", "test", 0.1, 0.4);
+        RunWriter rw = w.run(0);
+        Submap s;
+        s.cloud.resize(3);
+        rw.add_submap(s, 0);
+        EXPECT_TRUE(fs::exists(w.temp_dir()));
+        // destroyed without finish(): e.g. an exception in the generator
+    }
+    EXPECT_FALSE(fs::exists(out));
+    for (const auto& e : fs::directory_iterator(temp_root())) {
+        EXPECT_EQ(e.path().filename().string().find("fail.tmp"), std::string::npos);
+    }
+    // An existing output is not overwritten silently.
+    EXPECT_NE(error_of([&] { generate_dataset(sim_preset("lab-tiny"), lab_tiny()); }).find("already exists"),
+              std::string::npos);
+}
+
+TEST(DatasetTest, ViewsAndReferenceTransforms) {
+    const Dataset d = Dataset::open(lab_tiny());
+    const Manifest& m = d.manifest();
+    ASSERT_EQ(m.runs.size(), 2u);
+    EXPECT_TRUE(d.verify());
+    const auto complete = d.pairs(View::complete, Reference::gt);
+    const auto subsequent = d.pairs(View::subsequent, Reference::odometry);
+    EXPECT_EQ(complete.size(), 2u * 6u);
+    EXPECT_EQ(subsequent.size(), 2u * 3u);
+    for (const auto& p : complete) {
+        const auto& r = m.runs[p.run];
+        EXPECT_TRUE(p.T_a_b.isApprox(r.gt[p.a].T.inverse() * r.gt[p.b].T, 1e-12));
+        EXPECT_GE(p.overlap, 0);
+        EXPECT_LE(p.overlap, 1);
+    }
+    for (const auto& p : subsequent) {
+        EXPECT_EQ(p.b, p.a + 1);
+        EXPECT_GT(p.overlap, 0.3) << "subsequent submaps must overlap";
+        const auto& r = m.runs[p.run];
+        EXPECT_TRUE(p.T_a_b.isApprox(r.odometry[p.a].T.inverse() * r.odometry[p.b].T, 1e-12));
+    }
+}
+
+TEST(DatasetTest, LoadSubmapMatchesManifestAndGroundTruthAligns) {
+    const Dataset d = Dataset::open(lab_tiny());
+    const Submap a = d.load_submap(0, 0), b = d.load_submap("run00/submap001");
+    EXPECT_EQ(a.id, "run00/submap000");
+    EXPECT_EQ(a.cloud.size(), d.manifest().runs[0].submaps[0].points);
+    EXPECT_EQ(a.obstacles.size(), d.manifest().runs[0].submaps[0].obstacle_points);
+    ASSERT_TRUE(a.octree);
+    // The OctoMap knows free space (in front of the camera) and occupied space (surfaces),
+    // and nothing far away.
+    std::size_t occupied = 0, free_leaves = 0;
+    for (auto it = a.octree->begin_leafs(); it != a.octree->end_leafs(); ++it) {
+        (a.octree->isNodeOccupied(*it) ? occupied : free_leaves)++;
+    }
+    EXPECT_GT(occupied, 100u);
+    EXPECT_GT(free_leaves, 100u);
+    EXPECT_EQ(a.octree->search(100.0, 100.0, 100.0), nullptr);
+    // With gt poses, b's points land on a's surfaces: most voxels coincide.
+    const auto ka = world_voxel_keys(a.cloud, a.T_world_submap_gt, 0.25f);
+    const auto kb = world_voxel_keys(b.cloud, b.T_world_submap_gt, 0.25f);
+    EXPECT_GT(overlap_ratio(ka, kb), 0.4);
+    EXPECT_FALSE(a.T_world_submap_gt.isApprox(a.T_world_submap_odom, 1e-9) &&
+                 b.T_world_submap_gt.isApprox(b.T_world_submap_odom, 1e-9));
+}
+
+TEST(DatasetTest, StatsAndOdometryErrorBelowTenCentimetres) {
+    const Dataset d = Dataset::open(lab_tiny());
+    const DatasetStats s = compute_stats(d);
+    EXPECT_EQ(s.runs, 2u);
+    EXPECT_EQ(s.submaps, 8u);
+    EXPECT_EQ(s.complete_pairs, 12u);
+    EXPECT_GT(s.points_per_submap.mean, 500);
+    EXPECT_GT(s.obstacles_per_submap.mean, 10);
+    EXPECT_GT(s.submap_size.mean, 1);
+    EXPECT_EQ(s.odom_translation_error.n, 6u);
+    EXPECT_GT(s.odom_translation_error.mean, 0);  // odometry drifts
+    EXPECT_LT(s.odom_translation_error.std, 0.10);
+    EXPECT_NE(format_stats(d, s).find("odometry error subsequent"), std::string::npos);
+}
+
+TEST(DatasetTest, BadDatasetFilesAreNamed) {
+    const fs::path dir = temp_root() / "broken";
+    fs::copy(lab_tiny(), dir, fs::copy_options::recursive);
+    EXPECT_NE(error_of([&] { Dataset::open(temp_root() / "nope"); }).find("nope"), std::string::npos);
+    // Pose count mismatch.
+    const std::string gt = read_file(dir / "run01/gt.tum");
+    put(dir / "run01/gt.tum", gt.substr(0, gt.rfind('\n', gt.size() - 2) + 1));
+    EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("run01/gt.tum: 3 poses for 4 submaps"), std::string::npos);
+    put(dir / "run01/gt.tum", gt);
+    // Truncated cloud and OctoMap.
+    const Dataset d = Dataset::open(dir);
+    EXPECT_FALSE(d.verify() == false);
+    const std::string pcd = read_file(dir / "run00/submap001.pcd");
+    put(dir / "run00/submap001.pcd", pcd.substr(0, pcd.size() / 2));
+    EXPECT_NE(error_of([&] { d.load_submap(0, 1); }).find("run00/submap001.pcd: truncated"), std::string::npos);
+    EXPECT_FALSE(d.verify());
+    const std::string bt = read_file(dir / "run00/submap002.bt");
+    put(dir / "run00/submap002.bt", bt.substr(0, bt.size() / 3));
+    EXPECT_NE(error_of([&] { d.load_submap(0, 2); }).find("submap002.bt"), std::string::npos);
+    fs::remove(dir / "run00/submap003_obstacles.pcd");
+    EXPECT_NE(error_of([&] { d.load_submap(0, 3); }).find("submap003_obstacles.pcd: cannot open"), std::string::npos);
+    fs::remove(dir / "manifest.yaml");
+    EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("missing manifest"), std::string::npos);
+}
+
+TEST(SimulatorTest, MoonTinyHasTerrainObstacles) {
+    const fs::path out = temp_root() / "moon_tiny";
+    generate_dataset(sim_preset("moon-tiny"), out);
+    const Dataset d = Dataset::open(out);
+    const DatasetStats s = compute_stats(d);
+    EXPECT_EQ(s.submaps, 8u);
+    EXPECT_GT(s.obstacles_per_submap.mean, 5);
+    EXPECT_LT(s.obstacles_per_submap.mean, 0.5 * s.points_per_submap.mean);  // few features
+    EXPECT_GT(s.subsequent_overlap.min, 0.2);
+}
+
+TEST(ImportTest, CloudsAndTumPosesToDataset) {
+    const Dataset src = Dataset::open(lab_tiny());
+    const fs::path in = temp_root() / "import_in";
+    fs::create_directories(in);
+    std::vector<StampedPose> poses;
+    ImportInput input;
+    for (int i = 0; i < 3; ++i) {
+        const Submap s = src.load_submap(0, i);
+        put(in / ("c" + std::to_string(i) + ".pcd"), format_pcd_xyzrgb(s.cloud));
+        input.clouds.push_back(in / ("c" + std::to_string(i) + ".pcd"));
+        poses.push_back({double(i), s.T_world_submap_gt});
+    }
+    put(in / "poses.tum", format_tum(poses));
+    put(in / "short.tum", format_tum({poses[0], poses[1]}));
+    EXPECT_NE(error_of([&] { read_poses_for(in / "short.tum", 3); }).find("short.tum: has 2 poses but 3 clouds"),
+              std::string::npos);
+    input.poses = read_poses_for(in / "poses.tum", 3);
+    ImportOptions o;
+    o.voxel_m = 0.06;
+    o.obstacle_method = "height";
+    o.sensor_origin = Eigen::Vector3f(0, 0, 1);
+    const fs::path out = temp_root() / "imported";
+    import_dataset(input, o, out);
+    const Dataset d = Dataset::open(out);
+    EXPECT_TRUE(d.verify());
+    EXPECT_EQ(d.num_submaps(), 3u);
+    EXPECT_EQ(d.manifest().meta.at("obstacles"), "derived:height");
+    const Submap s = d.load_submap(0, 1);
+    EXPECT_TRUE(s.T_world_submap_gt.isApprox(poses[1].T, 1e-6));
+    EXPECT_TRUE(s.octree);
+    EXPECT_FALSE(s.obstacles.empty());
+    // A NaN point is rejected with the file's name; a missing file too; nothing is written.
+    auto cloud = src.load_submap(0, 0).cloud;
+    cloud[7].x = std::nanf("");
+    put(in / "c1.pcd", format_pcd_xyzrgb(cloud));
+    const fs::path out2 = temp_root() / "imported_bad";
+    EXPECT_NE(error_of([&] { import_dataset(input, o, out2); }).find("c1.pcd: 1 points with NaN"), std::string::npos);
+    EXPECT_FALSE(fs::exists(out2));
+    input.clouds[2] = in / "gone.ply";
+    EXPECT_NE(error_of([&] { import_dataset(input, o, out2); }).find("gone.ply: missing"), std::string::npos);
+}
+
+TEST(ImportTest, StanfordBunnyRealScans) {
+    const fs::path dir = fs::path(MAPTUNE_SOURCE_DIR) / "../shared/data/stanford_bunny_scans";
+    if (!fs::exists(dir / "bun.conf")) GTEST_SKIP() << "bunny data not present at " << dir;
+    ImportInput input = read_bunny_conf(dir / "bun.conf");
+    ASSERT_EQ(input.clouds.size(), 10u);
+    // Three scans keep the test fast: bun000, bun045, bun090.
+    input.clouds.resize(3);
+    input.poses.resize(3);
+    const fs::path out = temp_root() / "bunny";
+    import_dataset(input, bunny_options(), out);
+    const Dataset d = Dataset::open(out);
+    const auto pairs = d.pairs(View::complete, Reference::gt);
+    ASSERT_EQ(pairs.size(), 3u);
+    // With the README's convention the scans align to sub-millimetre: median nearest-
+    // neighbour distance from bun045 moved into bun000's frame.
+    const Submap a = d.load_submap(0, 0), b = d.load_submap(0, 1);
+    const Eigen::Isometry3f T = pairs[0].T_a_b.cast<float>();
+    std::vector<float> dists;
+    for (std::size_t i = 0; i < b.cloud.size(); i += 7) {
+        const Eigen::Vector3f p = T * Eigen::Vector3f(b.cloud[i].x, b.cloud[i].y, b.cloud[i].z);
+        float best = 1e9f;
+        for (const auto& q : a.cloud) best = std::min(best, (p - Eigen::Vector3f(q.x, q.y, q.z)).squaredNorm());
+        dists.push_back(std::sqrt(best));
+    }
+    std::nth_element(dists.begin(), dists.begin() + dists.size() / 2, dists.end());
+    EXPECT_LT(dists[dists.size() / 2], 0.0015f);  // voxel 2 mm
+    EXPECT_GT(pairs[0].overlap, 0.5);
+    EXPECT_GT(a.obstacles.size(), 10u);
+    EXPECT_LT(a.obstacles.size(), a.cloud.size() / 2);
+}
+
+TEST(RenderTest, WritesPng) {
+    const Dataset d = Dataset::open(lab_tiny());
+    const fs::path png = temp_root() / "run.png";
+    write_png(png, render_run_topdown(d, 0, 300));
+    const std::string bytes = read_file(png);
+    EXPECT_EQ(bytes.substr(1, 3), "PNG");
+    write_png(temp_root() / "sub.png", render_submap(d.load_submap(0, 0), 320, 240));
+    EXPECT_GT(fs::file_size(temp_root() / "sub.png"), 1000u);
+}

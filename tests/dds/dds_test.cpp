@@ -1,0 +1,213 @@
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <arpa/inet.h>
+
+#include <atomic>
+#include <fstream>
+#include <sstream>
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "dds/participant.hpp"
+#include "maptunePubSubTypes.h"
+
+extern char** environ;
+
+namespace maptune::dds {
+namespace {
+
+namespace v1 = maptune::msg::v1;
+using namespace std::chrono_literals;
+
+int random_domain() {
+    std::random_device rd;
+    return std::uniform_int_distribution<int>(1, kMaxDomainId)(rd);
+}
+
+// Polls `pred` until true or `timeout`.
+template <class Pred>
+bool wait_until(Pred pred, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (!pred()) {
+        if (std::chrono::steady_clock::now() > deadline) return false;
+        std::this_thread::sleep_for(5ms);
+    }
+    return true;
+}
+
+// Shared-memory files of processes that did not shut down cleanly.
+std::set<std::string> shm_files() {
+    std::set<std::string> out;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator("/dev/shm", ec)) {
+        const auto name = e.path().filename().string();
+        if (name.rfind("fastrtps_", 0) == 0 || name.rfind("sem.fastrtps_", 0) == 0) out.insert(name);
+    }
+    return out;
+}
+
+// Local addresses (host byte order) of the UDP sockets this process owns, from /proc.
+std::vector<uint32_t> own_udp_addresses() {
+    std::set<std::string> inodes;
+    for (const auto& e : std::filesystem::directory_iterator("/proc/self/fd")) {
+        std::error_code ec;
+        const auto target = std::filesystem::read_symlink(e.path(), ec).string();
+        if (target.rfind("socket:[", 0) == 0) inodes.insert(target.substr(8, target.size() - 9));
+    }
+    std::vector<uint32_t> out;
+    std::ifstream udp("/proc/self/net/udp");
+    std::string line;
+    std::getline(udp, line);  // header
+    while (std::getline(udp, line)) {
+        std::istringstream f(line);
+        std::string sl, local, remote, st, queues, tr, retr, uid, timeout, inode;
+        f >> sl >> local >> remote >> st >> queues >> tr >> retr >> uid >> timeout >> inode;
+        if (!inodes.count(inode)) continue;
+        // "0100007F:1F90": little-endian hex address as the kernel stores it.
+        const uint32_t raw = static_cast<uint32_t>(std::stoul(local.substr(0, 8), nullptr, 16));
+        out.push_back(ntohl(raw));
+    }
+    return out;
+}
+
+TEST(Participant, DefaultProfileBindsOnlyLoopbackSockets) {
+    Participant p({random_domain(), "", "maptune_loopback", "socket_check"});
+    p.writer<v1::BestSoFarPubSubType>("t/best_sockets", TopicQos::kLatched);  // opens data sockets
+    const auto addresses = own_udp_addresses();
+    ASSERT_FALSE(addresses.empty()) << "expected UDP sockets for loopback discovery";
+    for (uint32_t a : addresses) {
+        EXPECT_EQ(a >> 24, 127u) << "UDP socket bound to " << (a >> 24) << "." << ((a >> 16) & 255)
+                                 << "." << ((a >> 8) & 255) << "." << (a & 255);
+    }
+}
+
+TEST(Participant, RejectsOutOfRangeDomainAndUnknownProfile) {
+    EXPECT_THROW(Participant({233, "", "maptune_loopback", "t"}), DdsError);
+    EXPECT_THROW(Participant({-1, "", "maptune_loopback", "t"}), DdsError);
+    EXPECT_THROW(Participant({1, "", "no_such_profile", "t"}), DdsError);
+    EXPECT_THROW(Participant({1, "/nonexistent/profiles.xml", "maptune_loopback", "t"}), DdsError);
+}
+
+TEST(Participant, ReliableRequestsArriveInOrderBetweenParticipants) {
+    const int domain = random_domain();
+    Participant a({domain, "", "maptune_loopback", "a"});
+    Participant b({domain, "", "maptune_loopback", "b"});
+    std::mutex m;
+    std::vector<std::string> got;
+    b.reader<v1::ObservationRequestPubSubType>("t/requests", TopicQos::kReliable,
+                                              [&](const v1::ObservationRequest& r) {
+                                                  std::lock_guard<std::mutex> lock(m);
+                                                  got.push_back(r.request_id());
+                                              });
+    auto w = a.writer<v1::ObservationRequestPubSubType>("t/requests", TopicQos::kReliable);
+    ASSERT_TRUE(w.wait_for_readers(1, 10s)) << "no discovery on loopback, domain " << domain;
+    for (int i = 0; i < 200; ++i) {
+        v1::ObservationRequest r;
+        r.request_id("req-" + std::to_string(i));
+        r.params().push_back(v1::NamedValue());
+        r.params().back().name("r_N");
+        r.params().back().value(0.01 * i);
+        ASSERT_TRUE(w.write(r)) << "sample " << i;
+    }
+    ASSERT_TRUE(wait_until([&] { std::lock_guard<std::mutex> l(m); return got.size() == 200; }, 10s));
+    for (int i = 0; i < 200; ++i) EXPECT_EQ(got[static_cast<std::size_t>(i)], "req-" + std::to_string(i));
+}
+
+TEST(Participant, LatchedTopicGivesALateSubscriberOnlyTheLatestSample) {
+    const int domain = random_domain();
+    Participant pub({domain, "", "maptune_loopback", "pub"});
+    auto w = pub.writer<v1::BestSoFarPubSubType>("t/best", TopicQos::kLatched);
+    for (int i = 1; i <= 5; ++i) {
+        v1::BestSoFar b;
+        b.experiment_id("exp");
+        b.evaluations(static_cast<uint32_t>(i));
+        b.best_p(0.1 * i);
+        ASSERT_TRUE(w.write(b));
+    }
+    Participant late({domain, "", "maptune_loopback", "late"});
+    std::mutex m;
+    std::vector<double> seen;
+    late.reader<v1::BestSoFarPubSubType>("t/best", TopicQos::kLatched, [&](const v1::BestSoFar& b) {
+        std::lock_guard<std::mutex> lock(m);
+        seen.push_back(b.best_p());
+    });
+    ASSERT_TRUE(wait_until([&] { std::lock_guard<std::mutex> l(m); return !seen.empty(); }, 10s));
+    std::this_thread::sleep_for(200ms);  // would let stale samples arrive, if there were any
+    std::lock_guard<std::mutex> lock(m);
+    ASSERT_EQ(seen.size(), 1u);
+    EXPECT_DOUBLE_EQ(seen[0], 0.5);
+}
+
+TEST(Participant, TalksToAnotherProcessAndThatProcessStopsCleanlyOnSigterm) {
+    const int domain = random_domain();
+    const auto shm_before = shm_files();
+    const std::string domain_text = std::to_string(domain);
+    char* argv[] = {const_cast<char*>(MAPTUNE_DDS_ECHO), const_cast<char*>(domain_text.c_str()), nullptr};
+    pid_t pid = 0;
+    ASSERT_EQ(posix_spawn(&pid, MAPTUNE_DDS_ECHO, nullptr, nullptr, argv, environ), 0);
+    struct Reaper {  // the child is stopped whatever happens below
+        pid_t pid;
+        ~Reaper() {
+            if (pid > 0) {
+                kill(pid, SIGKILL);
+                waitpid(pid, nullptr, 0);
+            }
+        }
+    } reaper{pid};
+    {
+        Participant me({domain, "", "maptune_loopback", "test"});
+        std::mutex m;
+        std::vector<v1::ObservationReply> replies;
+        me.reader<v1::ObservationReplyPubSubType>("maptune/observation_reply", TopicQos::kReliable,
+                                                 [&](const v1::ObservationReply& r) {
+                                                     std::lock_guard<std::mutex> lock(m);
+                                                     replies.push_back(r);
+                                                 });
+        auto w = me.writer<v1::ObservationRequestPubSubType>("maptune/observation_request",
+                                                            TopicQos::kReliable);
+        ASSERT_TRUE(w.wait_for_readers(1, 15s));
+        v1::ObservationRequest req;
+        req.request_id("r1");
+        req.requester("dds_test");
+        v1::NamedValue nv;
+        nv.name("n_TF");
+        nv.value(63);
+        req.params().push_back(nv);
+        // The echo's reply writer may match our reader slightly after its reader matched us.
+        ASSERT_TRUE(wait_until(
+            [&] {
+                std::lock_guard<std::mutex> l(m);
+                if (replies.empty()) w.write(req);
+                return !replies.empty();
+            },
+            15s));
+        std::lock_guard<std::mutex> lock(m);
+        EXPECT_EQ(replies[0].request_id(), "r1");
+        EXPECT_EQ(replies[0].error(), "echo:dds_test");
+        ASSERT_EQ(replies[0].params().size(), 1u);
+        EXPECT_EQ(replies[0].params()[0].value(), 63);
+    }
+    ASSERT_EQ(kill(pid, SIGTERM), 0);
+    int status = 0;
+    ASSERT_TRUE(wait_until([&] { return waitpid(pid, &status, WNOHANG) == pid; }, 10s));
+    reaper.pid = 0;
+    EXPECT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    // A clean shutdown leaves no shared-memory segment behind.
+    std::set<std::string> leaked;
+    for (const auto& f : shm_files()) {
+        if (!shm_before.count(f)) leaked.insert(f);
+    }
+    EXPECT_TRUE(leaked.empty()) << "leaked " << *leaked.begin();
+}
+
+}  // namespace
+}  // namespace maptune::dds
