@@ -13,9 +13,11 @@ double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
 
 // Φ(z) / h(z) = d log h / dz, asymptotic for very negative z.
 double dlog_h(double z) {
-    if (z > -6.0) return normal_cdf(z) / std::exp(log_h(z));
+    if (z > -12.0) return normal_cdf(z) / std::exp(log_h(z));
     const double z2 = z * z;
-    return -z * (1.0 - 1.0 / z2 + 3.0 / (z2 * z2)) / (1.0 - 3.0 / z2 + 15.0 / (z2 * z2));
+    const double z4 = z2 * z2;
+    return -z * (1.0 - 1.0 / z2 + 3.0 / z4 - 15.0 / (z4 * z2)) /
+           (1.0 - 3.0 / z2 + 15.0 / z4 - 105.0 / (z4 * z2));
 }
 }  // namespace
 
@@ -42,10 +44,12 @@ double srinivas_kappa(int dim, double t, double delta, double scale) {
 }
 
 double log_h(double z) {
-    if (z > -6.0) return std::log(normal_pdf(z) + z * normal_cdf(z));
-    // h(z) = φ(z)/z² (1 − 3/z² + 15/z⁴ − …) for z → −∞ (Mills ratio expansion).
+    // Direct form is accurate down to z ≈ −12 (cancellation ~ z² ulp, erfc keeps its tail).
+    if (z > -12.0) return std::log(normal_pdf(z) + z * normal_cdf(z));
+    // h(z) = φ(z)/z² (1 − 3/z² + 15/z⁴ − 105/z⁶ …) for z → −∞ (Mills ratio expansion).
     const double z2 = z * z;
-    return -0.5 * z2 - kLogSqrt2Pi - std::log(z2) + std::log1p(-3.0 / z2 + 15.0 / (z2 * z2));
+    const double z4 = z2 * z2;
+    return -0.5 * z2 - kLogSqrt2Pi - std::log(z2) + std::log1p(-3.0 / z2 + 15.0 / z4 - 105.0 / (z4 * z2));
 }
 
 Eigen::VectorXd acquisition_values(const AcquisitionContext& ctx, const Eigen::VectorXd& mean,

@@ -147,6 +147,11 @@ TEST(DatasetTest, LoadSubmapMatchesManifestAndGroundTruthAligns) {
     EXPECT_GT(occupied, 100u);
     EXPECT_GT(free_leaves, 100u);
     EXPECT_EQ(a.octree->search(100.0, 100.0, 100.0), nullptr);
+    // The .bt file is a standard OctoMap file (octomap's own reader accepts it).
+    octomap::OcTree standard(0.1);
+    ASSERT_TRUE(standard.readBinary((lab_tiny() / "run00/submap000.bt").string()));
+    EXPECT_EQ(standard.size(), a.octree->size());
+    EXPECT_DOUBLE_EQ(standard.getResolution(), a.octree->getResolution());
     // With gt poses, b's points land on a's surfaces: most voxels coincide.
     const auto ka = world_voxel_keys(a.cloud, a.T_world_submap_gt, 0.25f);
     const auto kb = world_voxel_keys(b.cloud, b.T_world_submap_gt, 0.25f);

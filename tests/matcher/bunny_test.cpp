@@ -18,8 +18,8 @@ MatcherParams bunny_params() {
     p.r_D = 0.02;
     p.n_C = 3;
     p.t_C = 0.5;
-    p.r_LRF = 0.015;
-    p.v_TF = 0.01;
+    p.r_LRF = 0.02;
+    p.v_TF = 0.02;
     p.n_TF = 5;
     return p;
 }
@@ -28,8 +28,9 @@ MatcherSettings bunny_settings() {
     MatcherSettings s;
     s.threads = 2;
     s.ransac_inlier_threshold_m = 0.004;
-    s.icp_max_correspondence_m = 0.003;
-    s.icp_max_iterations = 50;
+    s.icp_max_correspondence_m = 0.002;
+    s.icp_max_iterations = 100;
+    s.icp_voxel_m = 0.001;
     s.line_threshold_m = 0.003;
     return s;
 }

@@ -1,0 +1,135 @@
+#pragma once
+// Coordinates evaluations across matcher workers (ARCHITECTURE: sample_db).
+//
+// A job is one observation to compute: a parameter set on a list of pairs. It is split into
+// shards of at most `shard_size` pairs; each shard is leased to a worker with a free slot
+// and the same design space and matcher. A worker that sends no heartbeat for `lease_s`
+// loses its shards, which go back to the queue; a shard that failed `max_attempts` times
+// is reported as FAILED pairs with the reason. Identical concurrent jobs (same key) run
+// once and answer every requester. Results from a worker that lost its lease are ignored
+// once another worker delivered the shard.
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "store/observation_store.hpp"
+
+namespace maptune::scheduler {
+
+struct SchedulerOptions {
+    double lease_s = 10.0;       // silence after which a worker's shards are re-assigned
+    std::size_t shard_size = 8;  // pairs per shard; 0 = one shard per job
+    int max_attempts = 3;        // assignments of one shard before its pairs are FAILED
+};
+
+struct WorkerInfo {
+    std::string id;
+    std::string matcher_id;
+    std::string matcher_version;
+    std::string space_hash;
+    int slots = 1;  // shards it runs at once
+};
+
+struct JobSpec {
+    std::string dataset_id;
+    std::string view;
+    std::string matcher_id;
+    std::string space_hash;
+    std::vector<std::pair<std::string, double>> params;  // full rounded set
+    std::vector<std::string> pair_ids;                   // results come back in this order
+};
+
+struct Assignment {
+    std::string task_id;
+    std::string worker_id;
+    std::string job_key;
+    const JobSpec* job = nullptr;          // valid until the job completes
+    std::vector<std::string> pair_ids;
+    int attempt = 1;
+};
+
+struct CompletedJob {
+    std::string job_key;
+    JobSpec spec;
+    std::vector<std::string> requesters;        // everyone who asked while it ran
+    std::vector<store::PairRecord> pairs;       // in spec.pair_ids order
+    double started_at = 0, finished_at = 0;
+};
+
+class Scheduler {
+public:
+    explicit Scheduler(SchedulerOptions options = {});
+
+    // A worker's announcement or heartbeat; (re)registers it.
+    void heartbeat(const WorkerInfo& worker, double now);
+    // Removes a worker at once (it said goodbye); its shards go back to the queue.
+    void remove_worker(const std::string& worker_id);
+
+    // Adds a job, or attaches `requester` to the running job with the same key. Returns
+    // true when the job is new. A job without pairs completes at the next schedule().
+    bool submit(const std::string& job_key, JobSpec spec, const std::string& requester, double now);
+
+    // Re-queues shards of silent workers, then leases queued shards to workers with free
+    // slots, matching matcher id and design-space hash. Returns the new assignments.
+    std::vector<Assignment> schedule(double now);
+
+    // A worker's results for a task. Returns the job when this completed it. Results for an
+    // unknown or already-delivered task, from a worker that does not hold the lease while
+    // another one does, or with the wrong pair count, are ignored (returns nullopt).
+    std::optional<CompletedJob> complete(const std::string& task_id, const std::string& worker_id,
+                                         std::vector<store::PairRecord> results, double now);
+    // A worker reports it could not run a task (e.g. cannot load a submap).
+    std::optional<CompletedJob> fail(const std::string& task_id, const std::string& worker_id,
+                                     const std::string& reason, double now);
+
+    // Jobs whose shards no live worker can run (no worker with that matcher/space yet).
+    std::size_t queued_shards() const { return queue_.size(); }
+    std::size_t running_shards() const;
+    std::size_t jobs() const { return jobs_.size(); }
+    std::size_t workers() const { return workers_.size(); }
+    int free_slots() const;
+    // Completed jobs from schedule() (empty jobs) since the last call.
+    std::vector<CompletedJob> take_completed();
+
+private:
+    struct Shard {
+        std::string task_id;
+        std::string job_key;
+        std::size_t begin = 0, end = 0;  // range in the job's pair list
+        std::string worker;              // empty while queued
+        int attempts = 0;
+        bool done = false;
+        std::string last_error;
+    };
+    struct Job {
+        JobSpec spec;
+        std::vector<std::string> requesters;
+        std::vector<std::string> shard_ids;
+        std::vector<store::PairRecord> pairs;
+        std::size_t remaining = 0;
+        double started_at = 0;
+    };
+    struct Worker {
+        WorkerInfo info;
+        double last_seen = 0;
+        std::set<std::string> tasks;
+    };
+
+    std::optional<CompletedJob> finish_shard(Shard& shard, double now);
+    void requeue(Shard& shard);
+
+    SchedulerOptions options_;
+    std::uint64_t next_task_ = 1;
+    std::map<std::string, Job> jobs_;
+    std::map<std::string, Shard> shards_;
+    std::deque<std::string> queue_;  // task ids waiting for a worker, oldest first
+    std::map<std::string, Worker> workers_;
+    std::vector<CompletedJob> completed_;
+};
+
+}  // namespace maptune::scheduler

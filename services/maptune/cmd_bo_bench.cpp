@@ -1,0 +1,195 @@
+// maptune bo-bench: regret and timing benchmarks of the Bayesian optimizer (issue 5).
+// Built into the maptune CLI when libs/bo is present, and into bench/bo's standalone
+// bo_bench executable.
+#ifdef MAPTUNE_HAVE_BO
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "bo/benchmark.hpp"
+#include "commands.hpp"
+#include "table.hpp"
+
+namespace maptune::cli {
+namespace {
+
+struct BoBenchOptions {
+    std::vector<std::string> functions{"branin", "hartmann6"};
+    std::vector<std::string> acquisitions{"log_ei"};
+    std::vector<int> q{1};
+    int seeds = 10;
+    int budget = 100;
+    int first_seed = 0;
+    double kappa = 5.0;
+    int candidates = 2000;
+    bool timing = false;
+    bool no_regret = false;
+    std::string json;
+    std::string csv;
+    std::string curves_csv;
+};
+
+std::string fmt(double v, const char* spec = "%.3g") {
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), spec, v);
+    return buf;
+}
+
+int run_bo_bench(const BoBenchOptions& o) {
+    nlohmann::json report;
+    report["regret"] = nlohmann::json::array();
+    report["timing"] = nlohmann::json::array();
+    Table regret_table{{"function", "acquisition", "q", "seeds", "regret@25", "regret@50",
+                        "regret@100", "ask_ms_median", "ask_ms_max"},
+                       {},
+                       {false, false, true, true, true, true, true, true, true}};
+    Table curves{{"function", "acquisition", "q", "evaluation", "median_regret"}, {},
+                 {false, false, true, true, true}};
+    const std::vector<int> checkpoints{25, 50, 100};
+    if (!o.no_regret) {
+        for (const std::string& name : o.functions) {
+            const auto fn = bo::test_function(name);
+            for (const std::string& acq_name : o.acquisitions) {
+                const auto acq = bo::acquisition_from_string(acq_name);
+                for (int q : o.q) {
+                    bo::OptimizerOptions options;
+                    options.acquisition = *acq;
+                    options.ucb_kappa = o.kappa;
+                    options.candidates = o.candidates;
+                    std::vector<bo::RegretRun> runs;
+                    for (int s = 0; s < o.seeds; ++s) {
+                        runs.push_back(bo::run_regret(*fn, o.budget, q, options,
+                                                      static_cast<std::uint64_t>(o.first_seed + s)));
+                        std::cerr << "\r" << name << " " << acq_name << " q=" << q << " seed "
+                                  << s + 1 << "/" << o.seeds << std::flush;
+                    }
+                    std::cerr << "\n";
+                    const bo::RegretSummary sm = bo::summarize(name, acq_name, q, runs, checkpoints);
+                    std::vector<std::string> row{name, acq_name, std::to_string(q), std::to_string(o.seeds)};
+                    for (double r : sm.median_regret) row.push_back(fmt(r, "%.3g"));
+                    row.push_back(fmt(sm.median_ask_ms, "%.1f"));
+                    row.push_back(fmt(sm.max_ask_ms, "%.1f"));
+                    regret_table.rows.push_back(row);
+                    for (std::size_t e = 0; e < sm.median_curve.size(); ++e) {
+                        curves.rows.push_back({name, acq_name, std::to_string(q), std::to_string(e + 1),
+                                               fmt(sm.median_curve[e], "%.6g")});
+                    }
+                    report["regret"].push_back({{"function", name},
+                                                {"acquisition", acq_name},
+                                                {"q", q},
+                                                {"seeds", o.seeds},
+                                                {"budget", o.budget},
+                                                {"checkpoints", checkpoints},
+                                                {"median_regret", sm.median_regret},
+                                                {"median_curve", sm.median_curve},
+                                                {"ask_ms_median", sm.median_ask_ms},
+                                                {"ask_ms_max", sm.max_ask_ms}});
+                }
+            }
+        }
+        write_table(std::cout, regret_table, TableFormat::kTable);
+    }
+    if (o.timing) {
+        Table timing{{"measurement", "n", "d", "seconds", "target_seconds"}, {},
+                     {false, true, true, true, true}};
+        auto add = [&](const std::string& what, int n, int d, double seconds, double target) {
+            timing.rows.push_back({what, std::to_string(n), std::to_string(d), fmt(seconds, "%.4f"),
+                                   target > 0 ? fmt(target, "%.2f") : "-"});
+            report["timing"].push_back(
+                {{"measurement", what}, {"n", n}, {"d", d}, {"seconds", seconds}, {"target_seconds", target}});
+        };
+        bo::OptimizerOptions options;
+        options.candidates = o.candidates;
+        for (int n : {100, 1000}) {
+            std::cerr << "ask timing n=" << n << "\n";
+            const bo::AskTiming t = bo::time_ask(n, 9, 5, options);
+            const double target = n <= 100 ? 0.05 : 1.0;
+            add("ask (with hyperparameter refit)", n, 9, t.first_ask_seconds, target);
+            add("ask (between refits, median of 5)", n, 9, t.median_ask_seconds, n <= 100 ? 0.05 : 1.0);
+        }
+        std::vector<gp::CholeskyBackend> backends{gp::CholeskyBackend::eigen};
+        if (gp::cholmod_available()) backends.push_back(gp::CholeskyBackend::cholmod);
+        for (auto backend : backends) {
+            for (int n : {100, 300, 1000}) {
+                std::cerr << "gp timing " << gp::to_string(backend) << " n=" << n << "\n";
+                const bool full = n == 1000 && backend == gp::CholeskyBackend::eigen;
+                const bo::GpTiming t = bo::time_gp(n, 9, 10000, backend, full);
+                const std::string b = " [" + t.backend + "]";
+                add("gp factorize" + b, n, 9, t.factorize_seconds, 0);
+                add("gp append one point" + b, n, 9, t.append_seconds, 0);
+                add("gp fit (default, subset<=300)" + b, n, 9, t.fit_seconds, n == 1000 ? 0.5 : 0);
+                if (full) add("gp fit (all n points)" + b, n, 9, t.fit_full_seconds, 0.5);
+                add("gp mean+variance at 10000 points" + b, n, 9, t.predict_seconds, n == 1000 ? 0.1 : 0);
+            }
+        }
+        std::cout << "\n";
+        write_table(std::cout, timing, TableFormat::kTable);
+    }
+    if (!o.json.empty()) {
+        std::ofstream f(o.json);
+        if (!f) {
+            std::cerr << "bo-bench: cannot write " << o.json << "\n";
+            return 1;
+        }
+        f << report.dump(2) << "\n";
+    }
+    auto write_csv = [](const std::string& path, const Table& t) {
+        if (path.empty()) return true;
+        std::ofstream f(path);
+        if (!f) {
+            std::cerr << "bo-bench: cannot write " << path << "\n";
+            return false;
+        }
+        write_table(f, t, TableFormat::kCsv);
+        return true;
+    };
+    if (!write_csv(o.csv, regret_table) || !write_csv(o.curves_csv, curves)) return 1;
+    return 0;
+}
+
+}  // namespace
+
+void add_bo_bench_command(CLI::App& app, int& exit_code) {
+    auto opt = std::make_shared<BoBenchOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "bo-bench",
+        "Optimizer benchmarks: median simple regret at 25/50/100 evaluations over seeds on test "
+        "functions, time per ask, GP fit/prediction times");
+    std::vector<std::string> fn_names = bo::test_function_names();
+    cmd->add_option("--functions", opt->functions,
+                    "test functions, any of branin | hartmann6 | branin_integer | log_rosenbrock9 "
+                    "(default: branin hartmann6)")
+        ->check(CLI::IsMember(fn_names));
+    cmd->add_option("--acquisitions", opt->acquisitions,
+                    "acquisitions, any of ucb | ucb_schedule | ei | log_ei (default: log_ei)")
+        ->check(CLI::IsMember({"ucb", "ucb_schedule", "ei", "log_ei"}));
+    cmd->add_option("--q", opt->q, "proposals per round, each in 1..64 (default: 1)")
+        ->check(CLI::Range(1, 64));
+    cmd->add_option("--seeds", opt->seeds, "seeds per configuration, 1..1000 (default: 10)")
+        ->check(CLI::Range(1, 1000));
+    cmd->add_option("--first-seed", opt->first_seed, "first seed, 0..1000000 (default: 0)")
+        ->check(CLI::Range(0, 1000000));
+    cmd->add_option("--budget", opt->budget, "evaluations per run, 1..2000 (default: 100)")
+        ->check(CLI::Range(1, 2000));
+    cmd->add_option("--kappa", opt->kappa, "UCB weight for --acquisitions ucb, 0..100 (default: 5, the thesis)")
+        ->check(CLI::Range(0.0, 100.0));
+    cmd->add_option("--candidates", opt->candidates,
+                    "quasi-random acquisition candidates per proposal, 10..100000 (default: 2000)")
+        ->check(CLI::Range(10, 100000));
+    cmd->add_flag("--timing", opt->timing,
+                  "also time ask at n = 100 and 1000 (9-D) and the GP (fit, append, mean+variance "
+                  "at 10000 points) for both Cholesky backends (default: off)");
+    cmd->add_flag("--no-regret", opt->no_regret, "skip the regret runs (default: off)");
+    cmd->add_option("--json", opt->json, "write all results, with median regret curves, as JSON to this file (default: none)");
+    cmd->add_option("--csv", opt->csv, "write the regret summary as CSV to this file (default: none)");
+    cmd->add_option("--curves-csv", opt->curves_csv,
+                    "write the median regret after every evaluation as CSV to this file (default: none)");
+    cmd->callback([opt, &exit_code] { exit_code = run_bo_bench(*opt); });
+}
+
+}  // namespace maptune::cli
+
+#endif  // MAPTUNE_HAVE_BO

@@ -1,0 +1,186 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "bo/benchmark.hpp"
+#include "bo/optimizer.hpp"
+#include "bo/test_functions.hpp"
+
+namespace maptune::bo {
+namespace {
+
+std::vector<Proposal> run(Optimizer& opt, const TestFunction& fn, int evaluations, int q) {
+    std::vector<Proposal> all;
+    while (static_cast<int>(all.size()) < evaluations) {
+        for (const Proposal& p : opt.ask(q)) {
+            EXPECT_TRUE(opt.tell(p.id, fn.f(p.values)));
+            all.push_back(p);
+        }
+    }
+    return all;
+}
+
+OptimizerOptions fast_options(std::uint64_t seed) {
+    OptimizerOptions o;
+    o.direction = Direction::minimize;
+    o.seed = seed;
+    o.candidates = 500;
+    o.polish_starts = 3;
+    return o;
+}
+
+TEST(OptimizerTest, DeterministicGivenSeed) {
+    const TestFunction fn = branin();
+    Optimizer a(fn.space, fast_options(5)), b(fn.space, fast_options(5)), c(fn.space, fast_options(6));
+    const auto pa = run(a, fn, 20, 2);
+    const auto pb = run(b, fn, 20, 2);
+    const auto pc = run(c, fn, 20, 2);
+    for (std::size_t i = 0; i < pa.size(); ++i) EXPECT_EQ(pa[i].values, pb[i].values) << i;
+    EXPECT_NE(pa.back().values, pc.back().values);
+}
+
+TEST(OptimizerTest, FindsBraninMinimum) {
+    const TestFunction fn = branin();
+    Optimizer opt(fn.space, fast_options(1));
+    run(opt, fn, 40, 1);
+    ASSERT_TRUE(opt.best().has_value());
+    EXPECT_LT(opt.best()->value - fn.minimum, 0.05);
+}
+
+TEST(OptimizerTest, StartPointsComeFirstThenDesignThenModel) {
+    const TestFunction fn = hartmann6();
+    Optimizer opt(fn.space, fast_options(2));
+    const std::vector<double> baseline = {0.2, 0.15, 0.48, 0.28, 0.31, 0.66};
+    opt.add_start_point(baseline);
+    const auto first = opt.ask(1);
+    EXPECT_EQ(first[0].origin, "start");
+    EXPECT_EQ(first[0].values, baseline);
+    opt.tell(first[0].id, fn.f(first[0].values));
+    const auto design = opt.ask(opt.initial_points() - 1);
+    for (const auto& p : design) {
+        EXPECT_EQ(p.origin, "initial");
+        opt.tell(p.id, fn.f(p.values));
+    }
+    EXPECT_EQ(opt.ask(1)[0].origin, "model");
+}
+
+TEST(OptimizerTest, BatchesNeverDuplicateOnSmallIntegerSpace) {
+    // 4 × 4 = 16 possible points; 16 proposals must be exactly all of them.
+    const std::vector<ParameterSpec> specs = {{"a", 0, 3, true}, {"b", 1, 4, true}};
+    Optimizer opt(specs, fast_options(3));
+    std::set<std::vector<double>> seen;
+    for (int round = 0; round < 4; ++round) {
+        const auto props = opt.ask(4);
+        ASSERT_EQ(props.size(), 4u);
+        for (const auto& p : props) {
+            EXPECT_TRUE(seen.insert(p.values).second) << p.values[0] << "," << p.values[1];
+            for (double v : p.values) EXPECT_EQ(v, std::round(v));
+            opt.tell(p.id, (p.values[0] - 2) * (p.values[0] - 2) + p.values[1]);
+        }
+    }
+    EXPECT_EQ(seen.size(), 16u);
+    EXPECT_EQ(opt.ask(2).size(), 2u);  // exhausted space still answers
+}
+
+TEST(OptimizerTest, PendingPointsAreAccountedForAcrossAsks) {
+    const TestFunction fn = branin();
+    Optimizer opt(fn.space, fast_options(4));
+    run(opt, fn, 10, 5);
+    // Asynchronous: three separate asks without any tell in between, then a batch of 8.
+    std::vector<Proposal> pending;
+    for (int i = 0; i < 3; ++i) pending.push_back(opt.ask(1)[0]);
+    for (const auto& p : opt.ask(8)) pending.push_back(p);
+    EXPECT_EQ(opt.pending(), 11u);
+    const SearchSpace& space = opt.space();
+    for (std::size_t i = 0; i < pending.size(); ++i) {
+        for (std::size_t j = i + 1; j < pending.size(); ++j) {
+            const double dist = (space.from_values(pending[i].values) - space.from_values(pending[j].values)).norm();
+            EXPECT_GT(dist, 1e-3) << i << " " << j;
+        }
+    }
+}
+
+TEST(OptimizerTest, FailedRegionIsAvoided) {
+    // Everything with x1 > 0.6 (unit cube) "crashes the matcher".
+    const std::vector<ParameterSpec> specs = {{"x1", 0, 1}, {"x2", 0, 1}};
+    OptimizerOptions o = fast_options(5);
+    o.direction = Direction::maximize;
+    Optimizer opt(specs, o);
+    int failures_after_design = 0;
+    for (int i = 0; i < 40; ++i) {
+        const Proposal p = opt.ask(1)[0];
+        if (p.values[0] > 0.6) {
+            // The objective increases towards the failing region, a worst case for avoidance.
+            if (p.origin == "model") ++failures_after_design;
+            opt.tell_failed(p.id, "crash");
+        } else {
+            opt.tell(p.id, p.values[0] - (p.values[1] - 0.5) * (p.values[1] - 0.5));
+        }
+    }
+    // Probing the boundary costs a few failures, not a stream of them.
+    EXPECT_LE(failures_after_design, 8);
+    EXPECT_FALSE(opt.tell(12345, 1.0));  // unknown id
+    ASSERT_TRUE(opt.best().has_value());
+    EXPECT_GT(opt.best()->values[0], 0.5);
+    const auto& obs = opt.observations();
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+        for (std::size_t j = 0; j < i; ++j) {
+            if (!obs[j].failed) continue;
+            const double dx = obs[i].values[0] - obs[j].values[0];
+            const double dy = obs[i].values[1] - obs[j].values[1];
+            EXPECT_GE(std::sqrt(dx * dx + dy * dy), o.failure_radius - 1e-9);
+        }
+    }
+}
+
+TEST(OptimizerTest, RestoresFromObservations) {
+    const TestFunction fn = hartmann6();
+    Optimizer a(fn.space, fast_options(7));
+    run(a, fn, 25, 1);
+    Optimizer b(fn.space, fast_options(7), a.observations());
+    EXPECT_EQ(b.observations().size(), 25u);
+    EXPECT_EQ(b.best()->value, a.best()->value);
+    const Proposal p = b.ask(1)[0];
+    EXPECT_EQ(p.origin, "model");
+    for (const auto& o : a.observations()) EXPECT_NE(o.values, p.values);
+    // A restored optimizer given the same history proposes the same point.
+    Optimizer c(fn.space, fast_options(7), a.observations());
+    EXPECT_EQ(c.ask(1)[0].values, p.values);
+}
+
+TEST(OptimizerTest, TellIsSingleUseAndCancelWithdraws) {
+    const TestFunction fn = branin();
+    Optimizer opt(fn.space, fast_options(8));
+    const auto p = opt.ask(2);
+    EXPECT_TRUE(opt.tell(p[0].id, 1.0));
+    EXPECT_FALSE(opt.tell(p[0].id, 1.0));
+    EXPECT_TRUE(opt.cancel(p[1].id));
+    EXPECT_FALSE(opt.tell_failed(p[1].id, "late"));
+    EXPECT_EQ(opt.pending(), 0u);
+    EXPECT_EQ(opt.observations().size(), 1u);
+}
+
+TEST(OptimizerTest, MixedIntegerLogSpaceProposalsStayValid) {
+    const std::vector<ParameterSpec> specs = {{"r", 0.1, 2.0, false, true},
+                                              {"n", 3, 300, true, true},
+                                              {"t", 0.0, 1.0}};
+    OptimizerOptions o = fast_options(9);
+    o.direction = Direction::maximize;
+    Optimizer opt(specs, o);
+    for (int i = 0; i < 20; ++i) {
+        for (const Proposal& p : opt.ask(2)) {
+            EXPECT_GE(p.values[0], 0.1);
+            EXPECT_LE(p.values[0], 2.0);
+            EXPECT_EQ(p.values[1], std::round(p.values[1]));
+            EXPECT_GE(p.values[1], 3.0);
+            EXPECT_LE(p.values[1], 300.0);
+            opt.tell(p.id, -std::pow(std::log(p.values[0] / 0.5), 2) -
+                               std::pow(std::log(p.values[1] / 40.0), 2) - p.values[2]);
+        }
+    }
+    EXPECT_GT(opt.best()->value, -0.5);
+}
+
+}  // namespace
+}  // namespace maptune::bo

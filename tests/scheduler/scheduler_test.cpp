@@ -1,0 +1,237 @@
+#include "scheduler/scheduler.hpp"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+
+namespace maptune::scheduler {
+namespace {
+
+JobSpec job(std::size_t pairs, const std::string& space = "S1") {
+    JobSpec s;
+    s.dataset_id = "ds";
+    s.view = "complete";
+    s.matcher_id = "lru_matcher";
+    s.space_hash = space;
+    s.params = {{"r_N", 0.2}};
+    for (std::size_t i = 0; i < pairs; ++i) s.pair_ids.push_back("p" + std::to_string(i));
+    return s;
+}
+
+WorkerInfo worker(const std::string& id, int slots = 1, const std::string& space = "S1") {
+    return {id, "lru_matcher", "1", space, slots};
+}
+
+// What a deterministic worker returns: pair i matched with x-translation i.
+std::vector<store::PairRecord> results_for(const Assignment& a) {
+    std::vector<store::PairRecord> out;
+    for (const auto& id : a.pair_ids) {
+        store::PairRecord r;
+        r.pair_id = id;
+        r.matched = true;
+        r.T_a_b_est(0, 3) = std::stod(id.substr(1));
+        out.push_back(r);
+    }
+    return out;
+}
+
+TEST(Scheduler, SplitsIntoShardsAndSpreadsOverWorkers) {
+    Scheduler s({10.0, 4, 3});
+    s.heartbeat(worker("w1"), 0);
+    s.heartbeat(worker("w2"), 0);
+    s.heartbeat(worker("w3", 2), 0);
+    EXPECT_TRUE(s.submit("k1", job(10), "opt", 0));
+    const auto a = s.schedule(0);
+    ASSERT_EQ(a.size(), 3u);  // 10 pairs / 4 = 3 shards
+    std::map<std::string, int> per_worker;
+    for (const auto& x : a) per_worker[x.worker_id]++;
+    EXPECT_EQ(per_worker.size(), 3u) << "least loaded first: every worker gets one";
+    EXPECT_EQ(a[0].pair_ids, (std::vector<std::string>{"p0", "p1", "p2", "p3"}));
+    EXPECT_EQ(a[2].pair_ids, (std::vector<std::string>{"p8", "p9"}));
+    EXPECT_EQ(s.free_slots(), 1);
+    std::optional<CompletedJob> done;
+    for (const auto& x : a) {
+        EXPECT_FALSE(done.has_value());
+        done = s.complete(x.task_id, x.worker_id, results_for(x), 1);
+    }
+    ASSERT_TRUE(done.has_value());
+    EXPECT_EQ(done->job_key, "k1");
+    ASSERT_EQ(done->pairs.size(), 10u);
+    for (std::size_t i = 0; i < 10; ++i) {
+        EXPECT_EQ(done->pairs[i].pair_id, "p" + std::to_string(i));
+        EXPECT_EQ(done->pairs[i].T_a_b_est(0, 3), static_cast<double>(i));
+    }
+    EXPECT_EQ(s.jobs(), 0u);
+    EXPECT_EQ(s.running_shards(), 0u);
+}
+
+TEST(Scheduler, QueuesWhenNoSlotIsFreeAndRespectsSlots) {
+    Scheduler s({10.0, 1, 3});
+    s.heartbeat(worker("w1", 2), 0);
+    s.submit("k", job(5), "opt", 0);
+    auto a = s.schedule(0);
+    EXPECT_EQ(a.size(), 2u);
+    EXPECT_EQ(s.queued_shards(), 3u);
+    EXPECT_TRUE(s.schedule(0).empty());
+    s.complete(a[0].task_id, "w1", results_for(a[0]), 1);
+    a = s.schedule(1);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_EQ(a[0].pair_ids[0], "p2");  // FIFO
+}
+
+TEST(Scheduler, OnlyCompatibleWorkersGetTasks) {
+    Scheduler s;
+    s.heartbeat(worker("other_space", 4, "S2"), 0);
+    WorkerInfo other_matcher = worker("other_matcher", 4);
+    other_matcher.matcher_id = "analytic";
+    s.heartbeat(other_matcher, 0);
+    s.submit("k", job(3), "opt", 0);
+    EXPECT_TRUE(s.schedule(0).empty());
+    s.heartbeat(worker("good"), 0.5);
+    const auto a = s.schedule(0.5);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_EQ(a[0].worker_id, "good");
+}
+
+TEST(Scheduler, DuplicateConcurrentRequestsRunOnce) {
+    Scheduler s({10.0, 0, 3});
+    s.heartbeat(worker("w1", 4), 0);
+    EXPECT_TRUE(s.submit("k", job(3), "opt-a", 0));
+    EXPECT_FALSE(s.submit("k", job(3), "opt-b", 0.1));
+    const auto a = s.schedule(0.1);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_FALSE(s.submit("k", job(3), "opt-c", 0.2));
+    EXPECT_TRUE(s.schedule(0.2).empty());
+    const auto done = s.complete(a[0].task_id, "w1", results_for(a[0]), 1);
+    ASSERT_TRUE(done.has_value());
+    EXPECT_EQ(done->requesters, (std::vector<std::string>{"opt-a", "opt-b", "opt-c"}));
+    // After completion the same key is a new job again (sample_db answers it from the store).
+    EXPECT_TRUE(s.submit("k", job(3), "opt-d", 2));
+}
+
+TEST(Scheduler, SilentWorkerLosesItsShardAndTheResultEqualsAnUninterruptedRun) {
+    Scheduler s({5.0, 2, 3});
+    s.heartbeat(worker("w1"), 0);
+    s.heartbeat(worker("w2"), 0);
+    s.submit("k", job(4), "opt", 0);
+    const auto a = s.schedule(0);
+    ASSERT_EQ(a.size(), 2u);
+    const Assignment& dead = a[0].worker_id == "w1" ? a[0] : a[1];
+    const Assignment& alive = a[0].worker_id == "w1" ? a[1] : a[0];
+    // w1 dies: no more heartbeats. w2 delivers and keeps heart-beating.
+    EXPECT_FALSE(s.complete(alive.task_id, "w2", results_for(alive), 1).has_value());
+    for (double t = 1; t <= 5; t += 1) {
+        s.heartbeat(worker("w2"), t);
+        EXPECT_TRUE(s.schedule(t).empty()) << "re-assigned before the lease ran out, t=" << t;
+    }
+    s.heartbeat(worker("w2"), 6);
+    const auto re = s.schedule(6);
+    ASSERT_EQ(re.size(), 1u);
+    EXPECT_EQ(re[0].worker_id, "w2");
+    EXPECT_EQ(re[0].pair_ids, dead.pair_ids);
+    EXPECT_EQ(re[0].attempt, 2);
+    // The dead worker's late result is ignored now that w2 holds the lease.
+    EXPECT_FALSE(s.complete(dead.task_id, "w1", results_for(dead), 6.5).has_value());
+    const auto done = s.complete(re[0].task_id, "w2", results_for(re[0]), 7);
+    ASSERT_TRUE(done.has_value());
+    for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(done->pairs[i].T_a_b_est(0, 3), static_cast<double>(i));
+}
+
+TEST(Scheduler, LateResultOfARequeuedShardIsAccepted) {
+    Scheduler s({1.0, 0, 3});
+    s.heartbeat(worker("w1"), 0);
+    s.submit("k", job(2), "opt", 0);
+    const auto a = s.schedule(0);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_TRUE(s.schedule(2).empty());  // w1 silent: shard queued, nobody to take it
+    EXPECT_EQ(s.queued_shards(), 1u);
+    const auto done = s.complete(a[0].task_id, "w1", results_for(a[0]), 2.5);
+    ASSERT_TRUE(done.has_value());
+    EXPECT_EQ(s.queued_shards(), 0u);
+}
+
+TEST(Scheduler, FailedShardsRetryThenReportFailedPairs) {
+    Scheduler s({10.0, 0, 2});
+    s.heartbeat(worker("w1"), 0);
+    s.submit("k", job(3), "opt", 0);
+    auto a = s.schedule(0);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_FALSE(s.fail(a[0].task_id, "w1", "cannot load submap p1", 1).has_value());
+    a = s.schedule(1);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_EQ(a[0].attempt, 2);
+    const auto done = s.fail(a[0].task_id, "w1", "cannot load submap p1", 2);
+    ASSERT_TRUE(done.has_value());
+    for (const auto& p : done->pairs) {
+        EXPECT_EQ(p.status, store::PairStatus::kFailed);
+        EXPECT_FALSE(p.matched);
+        EXPECT_NE(p.reason.find("cannot load submap p1"), std::string::npos);
+    }
+}
+
+TEST(Scheduler, IgnoresWrongCountsUnknownTasksAndDuplicates) {
+    Scheduler s({10.0, 0, 3});
+    s.heartbeat(worker("w1"), 0);
+    s.submit("k", job(3), "opt", 0);
+    const auto a = s.schedule(0);
+    auto short_results = results_for(a[0]);
+    short_results.pop_back();
+    EXPECT_FALSE(s.complete(a[0].task_id, "w1", short_results, 1).has_value());
+    EXPECT_FALSE(s.complete("t999", "w1", results_for(a[0]), 1).has_value());
+    ASSERT_TRUE(s.complete(a[0].task_id, "w1", results_for(a[0]), 1).has_value());
+    EXPECT_FALSE(s.complete(a[0].task_id, "w1", results_for(a[0]), 1).has_value());
+}
+
+TEST(Scheduler, EmptyJobCompletesWithoutWorkers) {
+    Scheduler s;
+    EXPECT_TRUE(s.submit("k", job(0), "opt", 0));
+    const auto done = s.take_completed();
+    ASSERT_EQ(done.size(), 1u);
+    EXPECT_TRUE(done[0].pairs.empty());
+}
+
+// Random interleavings of heartbeats, deaths, results and failures: every job completes
+// exactly once with every pair filled, whichever worker delivered it.
+TEST(Scheduler, RandomizedChurnCompletesEveryJobOnce) {
+    std::mt19937 rng(7);
+    Scheduler s({3.0, 3, 100});
+    std::map<std::string, bool> alive = {{"w1", true}, {"w2", true}, {"w3", true}, {"w4", true}};
+    const int n_jobs = 40;
+    for (int j = 0; j < n_jobs; ++j) s.submit("k" + std::to_string(j), job(1 + j % 11), "opt", 0);
+    std::vector<Assignment> running;
+    std::map<std::string, int> completed;
+    for (double t = 0; t < 2000 && static_cast<int>(completed.size()) < n_jobs; t += 0.5) {
+        for (auto& [id, up] : alive) {
+            if (std::uniform_real_distribution<>(0, 1)(rng) < 0.02) up = !up;  // die or return
+            if (up) s.heartbeat(worker(id, 2), t);
+        }
+        for (auto& a : s.schedule(t)) running.push_back(a);
+        std::shuffle(running.begin(), running.end(), rng);
+        std::vector<Assignment> keep;
+        for (auto& a : running) {
+            const double r = std::uniform_real_distribution<>(0, 1)(rng);
+            if (!alive[a.worker_id] || r < 0.5) {
+                if (alive[a.worker_id]) keep.push_back(a);
+                continue;
+            }
+            std::optional<CompletedJob> done =
+                r < 0.55 ? s.fail(a.task_id, a.worker_id, "flaky", t)
+                         : s.complete(a.task_id, a.worker_id, results_for(a), t);
+            if (done) {
+                completed[done->job_key]++;
+                for (std::size_t i = 0; i < done->pairs.size(); ++i) {
+                    EXPECT_EQ(done->pairs[i].pair_id, "p" + std::to_string(i));
+                    EXPECT_EQ(done->pairs[i].T_a_b_est(0, 3), static_cast<double>(i));
+                }
+            }
+        }
+        running = keep;
+    }
+    EXPECT_EQ(static_cast<int>(completed.size()), n_jobs);
+    for (const auto& [k, n] : completed) EXPECT_EQ(n, 1) << k;
+    EXPECT_EQ(s.jobs(), 0u);
+}
+
+}  // namespace
+}  // namespace maptune::scheduler
