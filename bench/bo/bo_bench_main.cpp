@@ -10,8 +10,8 @@ int main(int argc, char** argv) {
     maptune::cli::add_bo_bench_command(app, exit_code);
     // Run the subcommand without having to name it.
     std::vector<std::string> args{"bo-bench"};
-    for (int i = argc - 1; i >= 1; --i) args.insert(args.begin() + 1, argv[i]);
-    std::vector<std::string> reversed(args.rbegin(), args.rend());
+    for (int i = 1; i < argc; ++i) args.emplace_back(argv[i]);
+    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 wants them reversed
     try {
         app.parse(reversed);
     } catch (const CLI::ParseError& e) {

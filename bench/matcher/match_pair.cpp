@@ -133,6 +133,8 @@ int main(int argc, char** argv) {
                     to_string(r.status), r.reason.c_str(), r.keypoints_a, r.keypoints_b,
                     r.correspondences, r.groups, r.collinear_groups, r.group_size, r.ransac_inliers,
                     r.icp_fitness);
+        std::printf("stages: descriptors %.3f s, grouping+RANSAC %.3f s, ICP %.3f s\n",
+                    r.descriptor_s, r.grouping_s, r.icp_s);
         std::printf("RESULT matched %d rot_err_deg %.4f trans_err_m %.5f trans_err_pct_extent %.3f "
                     "features_s %.3f pair_s %.3f total_s %.3f\n",
                     r.matched ? 1 : 0, rot, trans, 100.0 * trans / extent, t_feat, t_pair,

@@ -65,6 +65,9 @@ std::vector<Correspondence> match_descriptors(const DescriptorMatrix& A, const D
     const bool all_pass = t_c > 1.0;  // every pair qualifies (d <= 1)
     std::vector<TopN> col_best(static_cast<std::size_t>(nb));
     for (auto& t : col_best) t.reset(n_c);
+    // Contiguous copy of each column's current worst kept score: the hot loop rejects almost
+    // every entry by one compare against it without touching the TopN arrays.
+    std::vector<float> col_worst(static_cast<std::size_t>(nb), -2.0f);
     TopN row_best;
     block_rows = std::max(1, block_rows);
     Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> S;
@@ -74,12 +77,21 @@ std::vector<Correspondence> match_descriptors(const DescriptorMatrix& A, const D
         for (int i = 0; i < rows; ++i) {
             row_best.reset(n_c);
             const float* s = S.data() + static_cast<std::ptrdiff_t>(i) * nb;
+            float row_worst = -2.0f;
+            const float floor_dot = all_pass ? -2.0f : min_dot;
             for (int j = 0; j < nb; ++j) {
                 const float v = s[j];
-                if (!all_pass && !(v > min_dot)) continue;
-                if (v > row_best.worst() || row_best.size() < n_c) row_best.push(v, j);
-                if (v > col_best[j].worst() || col_best[j].size() < n_c)
-                    col_best[j].push(v, r0 + i);
+                if (!(v > floor_dot)) continue;
+                // >= keeps tie semantics (smaller index wins) inside TopN::push.
+                if (v >= row_worst) {
+                    row_best.push(v, j);
+                    row_worst = row_best.worst();
+                }
+                if (v >= col_worst[static_cast<std::size_t>(j)]) {
+                    auto& cb = col_best[static_cast<std::size_t>(j)];
+                    cb.push(v, r0 + i);
+                    col_worst[static_cast<std::size_t>(j)] = cb.worst();
+                }
             }
             for (int k = 0; k < row_best.size(); ++k)
                 out.push_back({r0 + i, row_best.index(k), dot_to_distance(row_best.score(k))});

@@ -31,6 +31,11 @@ struct PairResult {
     int group_size = 0;          // correspondences in the chosen group
     int ransac_inliers = 0;
     double icp_fitness = -1.0;   // mean squared distance of ICP inliers [m^2]; -1 if not run
+
+    // Stage times [s] within duration_s.
+    double descriptor_s = 0.0;   // correspondence search
+    double grouping_s = 0.0;     // Hough, collinearity, RANSAC
+    double icp_s = 0.0;
 };
 
 }  // namespace maptune::matcher

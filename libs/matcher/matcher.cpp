@@ -93,6 +93,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     // 7. Bidirectional correspondences.
     const auto corrs = match_descriptors(a.descriptors, b.descriptors, params.n_C, params.t_C);
     r.correspondences = static_cast<int>(corrs.size());
+    r.descriptor_s = seconds_since(t0);
+    const auto t_group = std::chrono::steady_clock::now();
     if (deadline.expired())
         return finish(r, MatchStatus::kTimeout, "pair time limit after correspondences", t0);
     if (r.correspondences < 3)
@@ -136,6 +138,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     r.ransac_inliers = static_cast<int>(ransac.inliers.size());
     if (!ransac.ok) return finish(r, MatchStatus::kNoMatch, "RANSAC found no rigid transform", t0);
     Eigen::Matrix4f T = ransac.T_a_b;
+    r.grouping_s = seconds_since(t_group);
+    const auto t_icp = std::chrono::steady_clock::now();
     if (settings.icp_enabled) {
         const double max_corr =
             settings.icp_max_correspondence_m > 0 ? settings.icp_max_correspondence_m
@@ -146,6 +150,7 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
             r.icp_fitness = icp.fitness;
         }
     }
+    r.icp_s = seconds_since(t_icp);
     if (deadline.expired()) return finish(r, MatchStatus::kTimeout, "pair time limit in ICP", t0);
     r.T_a_b = T.cast<double>();
 

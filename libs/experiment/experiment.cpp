@@ -1,0 +1,254 @@
+#include "experiment/experiment.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+
+#include "params/yaml_util.hpp"
+
+namespace maptune::experiment {
+namespace {
+
+namespace fs = std::filesystem;
+using params::YamlPath;
+
+std::string resolve(const fs::path& base, const std::string& p) {
+    const fs::path path(p);
+    return path.is_absolute() ? p : (base / path).lexically_normal().string();
+}
+
+int read_int(const YAML::Node& n, const YamlPath& where, int low, int high) {
+    const double v = params::read_finite_double(n, where);
+    if (v != static_cast<double>(static_cast<long long>(v)) || v < low || v > high) {
+        where.fail(n, "expected an integer in [" + std::to_string(low) + ", " +
+                          std::to_string(high) + "], got " + n.Scalar());
+    }
+    return static_cast<int>(v);
+}
+
+double read_range(const YAML::Node& n, const YamlPath& where, double low, double high) {
+    const double v = params::read_finite_double(n, where);
+    if (v < low || v > high) {
+        where.fail(n, "expected a number in [" + params::format_double(low) + ", " +
+                          params::format_double(high) + "], got " + n.Scalar());
+    }
+    return v;
+}
+
+std::string read_choice(const YAML::Node& n, const YamlPath& where,
+                        std::initializer_list<const char*> choices) {
+    const std::string v = params::read_string(n, where);
+    std::string all;
+    for (const char* c : choices) {
+        if (v == c) return v;
+        all += all.empty() ? c : std::string(" | ") + c;
+    }
+    where.fail(n, "expected one of " + all + ", got '" + v + "'");
+}
+
+}  // namespace
+
+Experiment load_experiment(const std::string& file) {
+    const YAML::Node root = params::load_yaml_file(file);
+    const fs::path base = fs::path(file).parent_path();
+    const YamlPath top{file, ""};
+    params::check_keys(root, top,
+                       {"name", "description", "space", "optimize", "fixed", "dataset", "view",
+                        "reference", "measure", "budget", "optimizer", "start_points", "matcher",
+                        "workers"});
+    Experiment e;
+    e.file = file;
+    for (const char* required : {"name", "space", "dataset"}) {
+        if (!root[required].IsDefined()) top.fail(root, std::string("missing key '") + required + "'");
+    }
+    e.name = params::read_string(root["name"], top.child("name"));
+    e.space_file = resolve(base, params::read_string(root["space"], top.child("space")));
+    try {
+        e.space = params::ParameterSpace::load(e.space_file);
+    } catch (const params::ConfigError& err) {
+        top.child("space").fail(root["space"], err.what());
+    }
+
+    // optimize: list of names (default: all, in space order).
+    std::set<std::string> chosen;
+    if (root["optimize"].IsDefined()) {
+        const YamlPath p = top.child("optimize");
+        if (!root["optimize"].IsSequence()) p.fail(root["optimize"], "expected a list of parameter names");
+        for (std::size_t i = 0; i < root["optimize"].size(); ++i) {
+            const YAML::Node n = root["optimize"][i];
+            const std::string name = params::read_string(n, p.index(i));
+            if (e.space.find(name) == nullptr) {
+                p.index(i).fail(n, "unknown parameter '" + name + "' of space '" + e.space.name() + "'");
+            }
+            if (!chosen.insert(name).second) p.index(i).fail(n, "'" + name + "' listed twice");
+        }
+        if (chosen.empty()) p.fail(root["optimize"], "expected at least one parameter");
+    }
+    for (const auto& s : e.space.specs()) {
+        if (chosen.empty() || chosen.count(s.name)) e.optimize.push_back(s.name);
+    }
+
+    // fixed: overrides of the defaults for non-optimized parameters.
+    e.fixed = e.space.defaults();
+    if (root["fixed"].IsDefined()) {
+        const YamlPath p = top.child("fixed");
+        params::check_unique_keys(root["fixed"], p);
+        for (const auto& kv : root["fixed"]) {
+            const std::string name = kv.first.as<std::string>();
+            const params::ParameterSpec* spec = e.space.find(name);
+            if (spec == nullptr) p.child(name).fail(kv.first, "unknown parameter");
+            if (std::find(e.optimize.begin(), e.optimize.end(), name) != e.optimize.end()) {
+                p.child(name).fail(kv.first, "is optimized; fix it or optimize it, not both");
+            }
+            params::ParameterSet one{{name, params::read_finite_double(kv.second, p.child(name))}};
+            try {
+                e.space.complete(one);
+            } catch (const params::ConfigError& err) {
+                p.child(name).fail(kv.second, err.what());
+            }
+            e.fixed.set(name, one.get(name));
+        }
+    }
+
+    // dataset: a directory, or {dir, generate: {preset, runs, submaps, seed}}.
+    {
+        const YamlPath p = top.child("dataset");
+        const YAML::Node n = root["dataset"];
+        if (n.IsScalar()) {
+            e.dataset_dir = resolve(base, n.Scalar());
+        } else {
+            params::check_keys(n, p, {"dir", "generate"});
+            if (!n["dir"].IsDefined()) p.fail(n, "missing key 'dir'");
+            e.dataset_dir = resolve(base, params::read_string(n["dir"], p.child("dir")));
+            if (n["generate"].IsDefined()) {
+                const YamlPath g = p.child("generate");
+                const YAML::Node gn = n["generate"];
+                params::check_keys(gn, g, {"preset", "runs", "submaps", "seed"});
+                if (!gn["preset"].IsDefined()) g.fail(gn, "missing key 'preset'");
+                GenerateSpec spec;
+                spec.preset = read_choice(gn["preset"], g.child("preset"),
+                                          {"lab", "moon", "lab-tiny", "moon-tiny"});
+                if (gn["runs"].IsDefined()) spec.runs = read_int(gn["runs"], g.child("runs"), 1, 1000);
+                if (gn["submaps"].IsDefined()) {
+                    spec.submaps = read_int(gn["submaps"], g.child("submaps"), 2, 10000);
+                }
+                if (gn["seed"].IsDefined()) {
+                    spec.seed = static_cast<std::uint64_t>(read_int(gn["seed"], g.child("seed"), 0, 1 << 30));
+                }
+                e.generate = spec;
+            }
+        }
+    }
+    if (root["view"].IsDefined()) {
+        e.view = read_choice(root["view"], top.child("view"), {"complete", "subsequent"});
+    }
+    if (root["reference"].IsDefined()) {
+        e.reference = read_choice(root["reference"], top.child("reference"), {"gt", "odometry"});
+    }
+    if (root["measure"].IsDefined()) {
+        const YamlPath p = top.child("measure");
+        const YAML::Node n = root["measure"];
+        params::check_keys(n, p, {"e_star", "m_star", "w_v"});
+        if (n["e_star"].IsDefined()) e.e_star = read_range(n["e_star"], p.child("e_star"), 0.051, 1e6);
+        if (n["m_star"].IsDefined() && !(n["m_star"].IsScalar() && n["m_star"].Scalar() == "auto")) {
+            e.m_star = read_range(n["m_star"], p.child("m_star"), 1e-9, 1e9);
+        }
+        if (n["w_v"].IsDefined()) e.w_v = read_range(n["w_v"], p.child("w_v"), 0, 1);
+    }
+    if (root["budget"].IsDefined()) {
+        const YamlPath p = top.child("budget");
+        const YAML::Node n = root["budget"];
+        params::check_keys(n, p, {"evaluations", "seconds"});
+        if (n["evaluations"].IsDefined()) {
+            e.max_evaluations = read_int(n["evaluations"], p.child("evaluations"), 1, 100000);
+        }
+        if (n["seconds"].IsDefined()) e.max_seconds = read_range(n["seconds"], p.child("seconds"), 0, 1e9);
+    }
+    if (root["optimizer"].IsDefined()) {
+        const YamlPath p = top.child("optimizer");
+        const YAML::Node n = root["optimizer"];
+        params::check_keys(n, p, {"acquisition", "ucb_kappa", "initial_points", "seed", "batch"});
+        if (n["acquisition"].IsDefined()) {
+            e.acquisition = read_choice(n["acquisition"], p.child("acquisition"),
+                                        {"ucb", "ucb_schedule", "ei", "log_ei"});
+        }
+        if (n["ucb_kappa"].IsDefined()) e.ucb_kappa = read_range(n["ucb_kappa"], p.child("ucb_kappa"), 0, 100);
+        if (n["initial_points"].IsDefined()) {
+            e.initial_points = read_int(n["initial_points"], p.child("initial_points"), 0, 10000);
+        }
+        if (n["seed"].IsDefined()) {
+            e.seed = static_cast<std::uint64_t>(read_int(n["seed"], p.child("seed"), 0, 1 << 30));
+        }
+        if (n["batch"].IsDefined()) e.batch = read_int(n["batch"], p.child("batch"), 0, 1024);
+    }
+    if (root["start_points"].IsDefined()) {
+        const YamlPath p = top.child("start_points");
+        if (!root["start_points"].IsSequence()) p.fail(root["start_points"], "expected a list of parameter files");
+        for (std::size_t i = 0; i < root["start_points"].size(); ++i) {
+            const YAML::Node n = root["start_points"][i];
+            const std::string f = resolve(base, params::read_string(n, p.index(i)));
+            try {
+                params::ParameterSet s = params::load_parameter_set(f, e.space);
+                // Fixed parameters keep their fixed value whatever the start file says.
+                for (const auto& [name, value] : e.fixed) {
+                    if (std::find(e.optimize.begin(), e.optimize.end(), name) == e.optimize.end()) {
+                        s.set(name, value);
+                    }
+                }
+                e.start_points.push_back(s);
+                e.start_point_files.push_back(f);
+            } catch (const params::ConfigError& err) {
+                p.index(i).fail(n, err.what());
+            }
+        }
+    }
+    if (root["matcher"].IsDefined()) {
+        const YamlPath p = top.child("matcher");
+        const YAML::Node n = root["matcher"];
+        params::check_keys(n, p, {"threads", "pair_time_limit_s", "total_time_limit_s"});
+        if (n["threads"].IsDefined()) e.matcher_threads = read_int(n["threads"], p.child("threads"), 0, 256);
+        if (n["pair_time_limit_s"].IsDefined()) {
+            e.pair_time_limit_s = read_range(n["pair_time_limit_s"], p.child("pair_time_limit_s"), 0.01, 1e6);
+        }
+        if (n["total_time_limit_s"].IsDefined()) {
+            e.total_time_limit_s = read_range(n["total_time_limit_s"], p.child("total_time_limit_s"), 0.01, 1e7);
+        }
+    }
+    if (root["workers"].IsDefined()) e.workers = read_int(root["workers"], top.child("workers"), 1, 64);
+    return e;
+}
+
+std::vector<bo::ParameterSpec> search_space(const Experiment& e) {
+    std::vector<bo::ParameterSpec> out;
+    for (const auto& name : e.optimize) {
+        const params::ParameterSpec& s = *e.space.find(name);
+        out.push_back({s.name, s.low, s.high, s.type == params::ParamType::kInt, s.log_scale});
+    }
+    return out;
+}
+
+params::ParameterSet full_set(const Experiment& e, const std::vector<double>& values) {
+    params::ParameterSet set = e.fixed;
+    for (std::size_t i = 0; i < e.optimize.size() && i < values.size(); ++i) {
+        set.set(e.optimize[i], values[i]);
+    }
+    return set;
+}
+
+std::vector<double> optimizer_values(const Experiment& e, const params::ParameterSet& set) {
+    std::vector<double> out;
+    for (const auto& name : e.optimize) out.push_back(set.get(name));
+    return out;
+}
+
+bo::OptimizerOptions optimizer_options(const Experiment& e) {
+    bo::OptimizerOptions o;
+    o.direction = bo::Direction::maximize;
+    o.acquisition = *bo::acquisition_from_string(e.acquisition);  // validated on load
+    o.ucb_kappa = e.ucb_kappa;
+    o.initial_points = e.initial_points;
+    o.seed = e.seed;
+    return o;
+}
+
+}  // namespace maptune::experiment

@@ -1,0 +1,68 @@
+#pragma once
+// An experiment: a design space, which of its parameters are optimized (the others fixed),
+// the dataset, view and reference to train on, the measure's settings, the budget and the
+// optimizer's settings. Loaded from YAML (configs/experiments/, docs/experiments.md).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bo/optimizer.hpp"
+#include "params/parameter_set.hpp"
+#include "params/parameter_space.hpp"
+
+namespace maptune::experiment {
+
+// Dataset to generate when the directory does not exist yet (simulator presets).
+struct GenerateSpec {
+    std::string preset;            // lab | moon | lab-tiny | moon-tiny
+    int runs = 0;                  // 0 = preset's
+    int submaps = 0;               // 0 = preset's
+    std::uint64_t seed = 1;
+};
+
+struct Experiment {
+    std::string name;
+    std::string file;                        // where it was loaded from
+    params::ParameterSpace space;
+    std::string space_file;
+    std::vector<std::string> optimize;       // names, in space order
+    params::ParameterSet fixed;              // full set: defaults with the `fixed` overrides
+    std::string dataset_dir;                 // absolute or relative to the working dir
+    std::optional<GenerateSpec> generate;
+    std::string view = "subsequent";         // complete | subsequent
+    std::string reference = "gt";            // gt | odometry
+    double e_star = 0.4;                     // [m]
+    std::optional<double> m_star;            // empty = derived from the view's overlaps
+    double w_v = 0.5;
+    int max_evaluations = 30;
+    double max_seconds = 0;                  // 0 = no time budget
+    std::string acquisition = "log_ei";      // ucb | ucb_schedule | ei | log_ei
+    double ucb_kappa = 5.0;
+    int initial_points = 0;                  // 0 = optimizer default
+    std::uint64_t seed = 1;
+    int batch = 0;                           // proposals in flight; 0 = one per free worker slot
+    std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline
+    std::vector<std::string> start_point_files;
+    // Non-optimized matcher settings.
+    int matcher_threads = 0;                 // 0 = hardware concurrency
+    double pair_time_limit_s = 60;
+    double total_time_limit_s = 1800;
+    // Embedded run: worker processes/threads started by `maptune run`.
+    int workers = 1;
+};
+
+// Loads and checks an experiment; paths inside are relative to the file's directory.
+// Throws params::ConfigError naming the file, line, key path and what was expected.
+Experiment load_experiment(const std::string& file);
+
+// The optimizer's search box for the optimized parameters (the one conversion).
+std::vector<bo::ParameterSpec> search_space(const Experiment& e);
+// The full parameter set for optimizer values (in `optimize` order), fixed ones filled in.
+params::ParameterSet full_set(const Experiment& e, const std::vector<double>& values);
+// The optimizer values (in `optimize` order) of a full set.
+std::vector<double> optimizer_values(const Experiment& e, const params::ParameterSet& set);
+bo::OptimizerOptions optimizer_options(const Experiment& e);
+
+}  // namespace maptune::experiment

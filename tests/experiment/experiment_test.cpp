@@ -1,0 +1,115 @@
+#include "experiment/experiment.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "params/yaml_util.hpp"
+
+namespace maptune::experiment {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ExperimentTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        char tmpl[] = "/tmp/maptune_experiment_test_XXXXXX";
+        ASSERT_NE(mkdtemp(tmpl), nullptr);
+        dir_ = tmpl;
+        fs::copy(std::string(MAPTUNE_SOURCE_DIR) + "/configs/spaces/lru_matcher.yaml", dir_ / "space.yaml");
+        fs::copy(std::string(MAPTUNE_SOURCE_DIR) + "/configs/params/x_baseline.yaml", dir_ / "base.yaml");
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+    std::string write(const std::string& text) {
+        const auto p = dir_ / "exp.yaml";
+        std::ofstream(p) << text;
+        return p.string();
+    }
+    void expect_error(const std::string& text, const std::string& fragment) {
+        try {
+            load_experiment(write(text));
+            FAIL() << "accepted:\n" << text;
+        } catch (const params::ConfigError& e) {
+            EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+        }
+    }
+    fs::path dir_;
+};
+
+TEST_F(ExperimentTest, LoadsEverySectionWithPathsRelativeToTheFile) {
+    const Experiment e = load_experiment(write(R"(
+name: t
+space: space.yaml
+optimize: [t_K, r_D, n_TF]
+fixed: {v_K: 0.2}
+dataset: {dir: data/lab, generate: {preset: lab-tiny, runs: 2, submaps: 5, seed: 3}}
+view: complete
+reference: odometry
+measure: {e_star: 0.3, m_star: 12, w_v: 0.4}
+budget: {evaluations: 17, seconds: 90}
+optimizer: {acquisition: ucb, ucb_kappa: 5, seed: 9, batch: 2}
+start_points: [base.yaml]
+matcher: {threads: 1, pair_time_limit_s: 5}
+workers: 3
+)"));
+    EXPECT_EQ(e.name, "t");
+    EXPECT_EQ(e.optimize, (std::vector<std::string>{"t_K", "r_D", "n_TF"}));  // space order
+    EXPECT_DOUBLE_EQ(e.fixed.get("v_K"), 0.2);
+    EXPECT_DOUBLE_EQ(e.fixed.get("r_N"), 0.2);
+    EXPECT_EQ(e.dataset_dir, (dir_ / "data/lab").string());
+    ASSERT_TRUE(e.generate.has_value());
+    EXPECT_EQ(e.generate->preset, "lab-tiny");
+    EXPECT_EQ(e.generate->runs, 2);
+    EXPECT_EQ(e.view, "complete");
+    EXPECT_EQ(e.reference, "odometry");
+    EXPECT_DOUBLE_EQ(e.e_star, 0.3);
+    EXPECT_DOUBLE_EQ(*e.m_star, 12);
+    EXPECT_EQ(e.max_evaluations, 17);
+    EXPECT_EQ(e.acquisition, "ucb");
+    EXPECT_EQ(e.batch, 2);
+    ASSERT_EQ(e.start_points.size(), 1u);
+    EXPECT_DOUBLE_EQ(e.start_points[0].get("v_K"), 0.2) << "fixed values override start files";
+    EXPECT_EQ(e.workers, 3);
+
+    const auto box = search_space(e);
+    ASSERT_EQ(box.size(), 3u);
+    EXPECT_EQ(box[2].name, "n_TF");
+    EXPECT_TRUE(box[2].is_integer);
+    EXPECT_EQ(box[2].high, 300);
+    const params::ParameterSet full = full_set(e, {0.5, 1.0, 42});
+    EXPECT_EQ(full.size(), 9u);
+    EXPECT_DOUBLE_EQ(full.get("r_D"), 1.0);
+    EXPECT_DOUBLE_EQ(full.get("v_K"), 0.2);
+    EXPECT_EQ(optimizer_values(e, full), (std::vector<double>{0.5, 1.0, 42}));
+    EXPECT_EQ(optimizer_options(e).acquisition, bo::Acquisition::ucb);
+}
+
+TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
+    const Experiment e = load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\n"));
+    EXPECT_EQ(e.optimize.size(), 9u);
+    EXPECT_FALSE(e.m_star.has_value());
+    EXPECT_EQ(e.view, "subsequent");
+    EXPECT_EQ(e.reference, "gt");
+    EXPECT_FALSE(e.generate.has_value());
+}
+
+TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
+    const std::string head = "name: x\nspace: space.yaml\ndataset: ds\n";
+    expect_error(head + "optimize: [r_N, bogus]\n", "optimize[1]: unknown parameter 'bogus'");
+    expect_error(head + "optimize: [r_N, r_N]\n", "optimize[1]: 'r_N' listed twice");
+    expect_error(head + "optimize: [r_N]\nfixed: {r_N: 0.3}\n", "fixed.r_N: is optimized");
+    expect_error(head + "optimize: [r_N]\nfixed: {n_C: 20}\n", "fixed.n_C: n_C: 20.0 is outside [1.0, 10.0]");
+    expect_error(head + "view: sideways\n", "view: expected one of complete | subsequent, got 'sideways'");
+    expect_error(head + "measure: {e_star: 0.01}\n", "measure.e_star: expected a number in");
+    expect_error(head + "budget: {evaluations: 2.5}\n", "budget.evaluations: expected an integer");
+    expect_error(head + "optimizer: {acquisition: pi}\n", "optimizer.acquisition: expected one of");
+    expect_error(head + "start_points: [missing.yaml]\n", "start_points[0]: ");
+    expect_error(head + "colour: blue\n", "exp.yaml:4: colour: unknown key");
+    expect_error("name: x\ndataset: ds\n", "missing key 'space'");
+    expect_error("name: x\nspace: nope.yaml\ndataset: ds\n", "space: ");
+}
+
+}  // namespace
+}  // namespace maptune::experiment
