@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libpcl-dev liboctomap-dev
   libfastrtps-dev fastddsgen fastdds-tools
+  docker-compose
 )
 
 missing=()

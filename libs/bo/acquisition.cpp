@@ -23,16 +23,21 @@ double dlog_h(double z) {
 
 std::string to_string(Acquisition a) {
     switch (a) {
-        case Acquisition::ucb: return "ucb";
-        case Acquisition::ucb_schedule: return "ucb_schedule";
-        case Acquisition::ei: return "ei";
-        case Acquisition::log_ei: return "log_ei";
+        case Acquisition::ucb:
+            return "ucb";
+        case Acquisition::ucb_schedule:
+            return "ucb_schedule";
+        case Acquisition::ei:
+            return "ei";
+        case Acquisition::log_ei:
+            return "log_ei";
     }
     return "unknown";
 }
 
 std::optional<Acquisition> acquisition_from_string(const std::string& name) {
-    for (auto a : {Acquisition::ucb, Acquisition::ucb_schedule, Acquisition::ei, Acquisition::log_ei}) {
+    for (auto a :
+         {Acquisition::ucb, Acquisition::ucb_schedule, Acquisition::ei, Acquisition::log_ei}) {
         if (to_string(a) == name) return a;
     }
     return std::nullopt;
@@ -49,7 +54,8 @@ double log_h(double z) {
     // h(z) = φ(z)/z² (1 − 3/z² + 15/z⁴ − 105/z⁶ …) for z → −∞ (Mills ratio expansion).
     const double z2 = z * z;
     const double z4 = z2 * z2;
-    return -0.5 * z2 - kLogSqrt2Pi - std::log(z2) + std::log1p(-3.0 / z2 + 15.0 / z4 - 105.0 / (z4 * z2));
+    return -0.5 * z2 - kLogSqrt2Pi - std::log(z2) +
+           std::log1p(-3.0 / z2 + 15.0 / z4 - 105.0 / (z4 * z2));
 }
 
 Eigen::VectorXd acquisition_values(const AcquisitionContext& ctx, const Eigen::VectorXd& mean,
@@ -60,7 +66,9 @@ Eigen::VectorXd acquisition_values(const AcquisitionContext& ctx, const Eigen::V
         const double s = sigma(i);
         switch (ctx.kind) {
             case Acquisition::ucb:
-            case Acquisition::ucb_schedule: out(i) = mean(i) + ctx.kappa * s; break;
+            case Acquisition::ucb_schedule:
+                out(i) = mean(i) + ctx.kappa * s;
+                break;
             case Acquisition::ei: {
                 const double z = (mean(i) - ctx.incumbent) / s;
                 out(i) = s * (normal_pdf(z) + z * normal_cdf(z));
@@ -88,7 +96,8 @@ double acquisition_value(const AcquisitionContext& ctx, const gp::PointPredictio
         case Acquisition::ei: {
             const double z = (p.mean - ctx.incumbent) / s;
             // dEI = Φ(z) dμ + φ(z) dσ.
-            if (gradient != nullptr) *gradient = normal_cdf(z) * p.mean_gradient + normal_pdf(z) * ds;
+            if (gradient != nullptr)
+                *gradient = normal_cdf(z) * p.mean_gradient + normal_pdf(z) * ds;
             return s * (normal_pdf(z) + z * normal_cdf(z));
         }
         case Acquisition::log_ei: {

@@ -107,6 +107,16 @@ AskTiming time_ask(int n, int dim, int repeats, OptimizerOptions options) {
         times.push_back(seconds_since(start));
     }
     t.median_ask_seconds = median(times);
+    opt.cancel(p.front().id);
+    times.clear();
+    for (int r = 0; r < repeats; ++r) {
+        start = Clock::now();
+        p = opt.ask(1);
+        times.push_back(seconds_since(start));
+        opt.tell(p.front().id, fn.f(p.front().values));
+    }
+    t.running_median_seconds = median(times);
+    t.running_max_seconds = *std::max_element(times.begin(), times.end());
     return t;
 }
 

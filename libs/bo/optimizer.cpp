@@ -83,9 +83,12 @@ Optimizer::Point Optimizer::make_point(const Eigen::VectorXd& u) const {
 }
 
 bool Optimizer::is_taken(const Eigen::VectorXd& g) const {
-    auto same = [&](const Point& p) { return (p.g - g).cwiseAbs().maxCoeff() < kDuplicateTolerance; };
+    auto same = [&](const Point& p) {
+        return (p.g - g).cwiseAbs().maxCoeff() < kDuplicateTolerance;
+    };
     if (std::any_of(observed_points_.begin(), observed_points_.end(), same)) return true;
-    return std::any_of(pending_.begin(), pending_.end(), [&](const auto& kv) { return same(kv.second); });
+    return std::any_of(pending_.begin(), pending_.end(),
+                       [&](const auto& kv) { return same(kv.second); });
 }
 
 bool Optimizer::near_failure(const Eigen::VectorXd& g) const {
@@ -134,12 +137,17 @@ Optimizer::Model Optimizer::build_model() {
         y(k++) = worst;
     }
 
-    gp::GaussianProcess model(d, options_.gp);
+    gp::GpOptions gp_options = options_.gp;
+    // After the first fit the previous optimum is a good start; the fixed one only costs time.
+    if (last_fit_n_ > 0) gp_options.fit.fixed_start = false;
+    gp::GaussianProcess model(d, gp_options);
     model.set_hyperparameters(hp_);
     model.set_data(x, y);
     const auto nu = static_cast<std::size_t>(n);
-    const bool refit = nu <= 100 || last_fit_n_ == 0 ||
-                       static_cast<double>(nu) >= (1.0 + options_.refit_growth) * static_cast<double>(last_fit_n_);
+    const double grown = static_cast<double>(nu) - static_cast<double>(last_fit_n_);
+    const bool refit =
+        last_fit_n_ == 0 ||
+        grown >= std::max(1.0, std::round(options_.refit_growth * static_cast<double>(nu)));
     if (refit && n >= 2) {
         hp_ = model.fit(mix(options_.seed, 1000 + nu)).hyperparameters;
         last_fit_n_ = nu;
@@ -170,8 +178,12 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
     // Candidates: a freshly scrambled Halton set plus Gaussian perturbations of the best
     // observations at several scales (exploitation needs points near the incumbent).
     std::mt19937_64 rng(seed);
-    const Eigen::Index n_total = std::max(options_.candidates, 1);
-    const auto n_local = static_cast<Eigen::Index>(options_.local_fraction * static_cast<double>(n_total));
+    const double n_obs = static_cast<double>(observations_.size());
+    const double shrink = n_obs > 300.0 ? 300.0 / n_obs : 1.0;
+    const auto n_total = static_cast<Eigen::Index>(std::max(
+        std::min(options_.candidates, 256), static_cast<int>(options_.candidates * shrink)));
+    const auto n_local =
+        static_cast<Eigen::Index>(options_.local_fraction * static_cast<double>(n_total));
     const Eigen::Index n_global = n_total - n_local;
     const ScrambledHalton halton(d, mix(seed, 2));
     Eigen::MatrixXd cand_u(d, n_total);
@@ -192,9 +204,11 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
             cand_u.col(n_global + i) = halton.point(static_cast<std::uint64_t>(n_global + i));
             continue;
         }
-        const Eigen::VectorXd& center = observed_points_[order[static_cast<std::size_t>(i) % order.size()]].u;
+        const Eigen::VectorXd& center =
+            observed_points_[order[static_cast<std::size_t>(i) % order.size()]].u;
         const double s = scales[i % 3];
-        for (int j = 0; j < d; ++j) cand_u(j, n_global + i) = std::clamp(center(j) + s * normal(rng), 0.0, 1.0);
+        for (int j = 0; j < d; ++j)
+            cand_u(j, n_global + i) = std::clamp(center(j) + s * normal(rng), 0.0, 1.0);
     }
     Eigen::MatrixXd cand_g(d, n_total);
     for (Eigen::Index i = 0; i < n_total; ++i) {
@@ -206,11 +220,13 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
     Eigen::VectorXd acq = acquisition_values(ctx, mean, var);
     const double minus_inf = -std::numeric_limits<double>::infinity();
     for (Eigen::Index i = 0; i < n_total; ++i) {
-        if (!std::isfinite(acq(i)) || is_taken(cand_g.col(i)) || near_failure(cand_g.col(i))) acq(i) = minus_inf;
+        if (!std::isfinite(acq(i)) || is_taken(cand_g.col(i)) || near_failure(cand_g.col(i)))
+            acq(i) = minus_inf;
     }
     std::vector<Eigen::Index> idx(static_cast<std::size_t>(n_total));
     std::iota(idx.begin(), idx.end(), 0);
-    const auto n_starts = std::min<std::size_t>(static_cast<std::size_t>(std::max(options_.polish_starts, 1)), idx.size());
+    const auto n_starts = std::min<std::size_t>(
+        static_cast<std::size_t>(std::max(options_.polish_starts, 1)), idx.size());
     std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n_starts), idx.end(),
                       [&](Eigen::Index a, Eigen::Index b) { return acq(a) > acq(b); });
 
@@ -229,7 +245,8 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
         if (!std::isfinite(acq(c))) break;
         Eigen::VectorXd lb = Eigen::VectorXd::Zero(d), ub = Eigen::VectorXd::Ones(d);
         for (int j = 0; j < d; ++j) {
-            if (space_.specs()[static_cast<std::size_t>(j)].is_integer) lb(j) = ub(j) = cand_u(j, c);
+            if (space_.specs()[static_cast<std::size_t>(j)].is_integer)
+                lb(j) = ub(j) = cand_u(j, c);
         }
         AcquisitionObjective objective{model.gp, space_, ctx};
         Eigen::VectorXd u = cand_u.col(c);
@@ -268,13 +285,15 @@ std::vector<Proposal> Optimizer::ask(int q) {
                 --i;  // already known: the next source fills this slot
                 continue;
             }
-        } else if (observations_.size() + pending_.size() < static_cast<std::size_t>(initial_points()) ||
+        } else if (observations_.size() + pending_.size() <
+                       static_cast<std::size_t>(initial_points()) ||
                    !any_success) {
             point = make_point(next_design_point());
             proposal.origin = "initial";
         } else {
             if (!model) model = build_model();
-            // Seeded by the number of points so far, so a restored optimizer draws the same candidates.
+            // Seeded by the number of points so far, so a restored optimizer draws the same
+            // candidates.
             const auto key = static_cast<std::uint64_t>(observations_.size() + pending_.size());
             point = make_point(maximize_acquisition(*model, mix(options_.seed, 2 * key + 11)));
             proposal.origin = "model";

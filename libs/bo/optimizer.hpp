@@ -24,16 +24,21 @@ struct OptimizerOptions {
     Direction direction = Direction::maximize;  // the matcher's score p: larger is better
     // Default chosen from the regret benchmarks (docs/optimizer.md, BENCHMARKS.md).
     Acquisition acquisition = Acquisition::log_ei;
-    double ucb_kappa = 5.0;        // fixed UCB weight; the thesis used 5
-    double schedule_delta = 0.1;   // Srinivas δ
-    double schedule_scale = 0.2;   // Srinivas et al. scale β_t down by 5 in their experiments
-    int initial_points = 0;        // quasi-random design size; 0 = max(5, 2·d)
-    int candidates = 2000;         // quasi-random acquisition candidates per proposal
+    double ucb_kappa = 5.0;       // fixed UCB weight; the thesis used 5
+    double schedule_delta = 0.1;  // Srinivas δ
+    double schedule_scale = 0.2;  // Srinivas et al. scale β_t down by 5 in their experiments
+    int initial_points = 0;       // quasi-random design size; 0 = max(5, 2·d)
+    // Quasi-random acquisition candidates per proposal; above 300 observations scaled by
+    // 300/n (at least 256) because each costs O(n²) for its variance.
+    int candidates = 2000;
     double local_fraction = 0.25;  // share of candidates drawn around the best observations
     int polish_starts = 5;         // L-BFGS-B polishes from the best candidates
     int polish_iterations = 30;
     double failure_radius = 0.05;  // no proposals this close (unit cube, Euclidean) to a failure
-    double refit_growth = 0.05;    // above 100 observations, refit when n grew by this fraction
+    // Hyperparameters are refitted when the observations grew by this fraction since the last
+    // fit (at least one new observation): every tell below 20, every 5th at 100, every 50th at
+    // 1000. In between, new points enter the factorization by O(n²) appends of the same model.
+    double refit_growth = 0.05;
     gp::GpOptions gp;
     std::uint64_t seed = 0;
 };
@@ -52,7 +57,7 @@ struct Observation {
 };
 
 class Optimizer {
-public:
+  public:
     Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options = {});
     // Rebuilds the state from earlier observations (resume after a restart).
     Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options,
@@ -79,7 +84,7 @@ public:
     const gp::Hyperparameters& hyperparameters() const { return hp_; }
     int initial_points() const;
 
-private:
+  private:
     struct Point {
         Eigen::VectorXd u;  // unit cube, integers snapped
         Eigen::VectorXd g;  // GP input

@@ -41,7 +41,8 @@ ScrambledHalton::ScrambledHalton(int dim, std::uint64_t seed)
             std::iota(perm.begin(), perm.end(), 0);
             for (int i = b - 1; i > 0; --i) {
                 std::uniform_int_distribution<int> pick(0, i);
-                std::swap(perm[static_cast<std::size_t>(i)], perm[static_cast<std::size_t>(pick(rng))]);
+                std::swap(perm[static_cast<std::size_t>(i)],
+                          perm[static_cast<std::size_t>(pick(rng))]);
             }
         }
     }

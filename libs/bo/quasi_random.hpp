@@ -10,17 +10,17 @@
 namespace maptune::bo {
 
 class ScrambledHalton {
-public:
+  public:
     ScrambledHalton(int dim, std::uint64_t seed);
     Eigen::VectorXd point(std::uint64_t index) const;
     // Columns index, index+1, ..., index+n-1 as a d×n matrix.
     Eigen::MatrixXd points(std::uint64_t index, Eigen::Index n) const;
 
-private:
+  private:
     int dim_;
     std::vector<int> bases_;
-    std::vector<int> digits_;                               // digits used per dimension
-    std::vector<std::vector<std::vector<int>>> perms_;      // [dim][digit] -> permutation
+    std::vector<int> digits_;                           // digits used per dimension
+    std::vector<std::vector<std::vector<int>>> perms_;  // [dim][digit] -> permutation
 };
 
 }  // namespace maptune::bo

@@ -13,9 +13,11 @@ SearchSpace::SearchSpace(std::vector<ParameterSpec> specs) : specs_(std::move(sp
             s.low = std::ceil(s.low);
             s.high = std::floor(s.high);
         }
-        if (!(s.high >= s.low)) throw std::invalid_argument("SearchSpace: high < low for " + s.name);
+        if (!(s.high >= s.low))
+            throw std::invalid_argument("SearchSpace: high < low for " + s.name);
         if (s.log_scale && (s.low <= 0.0 || (s.is_integer && s.low < 1.0))) {
-            throw std::invalid_argument("SearchSpace: log scale needs a positive low for " + s.name);
+            throw std::invalid_argument("SearchSpace: log scale needs a positive low for " +
+                                        s.name);
         }
     }
 }

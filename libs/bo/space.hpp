@@ -18,7 +18,7 @@ struct ParameterSpec {
 };
 
 class SearchSpace {
-public:
+  public:
     // Throws std::invalid_argument for empty spaces or inconsistent bounds (programmer error).
     explicit SearchSpace(std::vector<ParameterSpec> specs);
 
@@ -38,7 +38,7 @@ public:
     // Values clamped to bounds and rounded on integer parameters.
     std::vector<double> canonical(const std::vector<double>& values) const;
 
-private:
+  private:
     double transform(int j, double x) const;  // log or identity
     double inverse_transform(int j, double t) const;
     double integer_value(int j, double u) const;

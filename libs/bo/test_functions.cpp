@@ -39,7 +39,8 @@ TestFunction branin_integer() {
 TestFunction hartmann6() {
     TestFunction fn;
     fn.name = "hartmann6";
-    for (int j = 0; j < 6; ++j) fn.space.push_back({"x" + std::to_string(j + 1), 0.0, 1.0, false, false});
+    for (int j = 0; j < 6; ++j)
+        fn.space.push_back({"x" + std::to_string(j + 1), 0.0, 1.0, false, false});
     fn.minimum = -3.32236801141551;
     fn.f = [](const std::vector<double>& x) {
         static const double alpha[4] = {1.0, 1.2, 3.0, 3.2};
@@ -68,7 +69,8 @@ TestFunction hartmann6() {
 TestFunction log_rosenbrock(int dim) {
     TestFunction fn;
     fn.name = "log_rosenbrock" + std::to_string(dim);
-    for (int j = 0; j < dim; ++j) fn.space.push_back({"x" + std::to_string(j + 1), -2.0, 2.0, false, false});
+    for (int j = 0; j < dim; ++j)
+        fn.space.push_back({"x" + std::to_string(j + 1), -2.0, 2.0, false, false});
     fn.minimum = 0.0;
     fn.f = [](const std::vector<double>& x) {
         double f = 0.0;

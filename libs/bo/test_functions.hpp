@@ -17,8 +17,8 @@ struct TestFunction {
     std::function<double(const std::vector<double>&)> f;
 };
 
-TestFunction branin();            // 2-D, x1 in [-5, 10], x2 in [0, 15], min 0.397887
-TestFunction hartmann6();         // 6-D unit cube, min -3.32237
+TestFunction branin();                 // 2-D, x1 in [-5, 10], x2 in [0, 15], min 0.397887
+TestFunction hartmann6();              // 6-D unit cube, min -3.32237
 TestFunction log_rosenbrock(int dim);  // log(1 + Rosenbrock) on [-2, 2]^d, min 0
 // Branin with x2 restricted to integers 0..15: checks integer handling (min 0.397887 is not
 // reachable exactly; the best integer x2 gives the reported minimum).

@@ -21,6 +21,8 @@ SimConfig sim_preset(const std::string& name) {
     SimConfig c;
     if (name == "lab" || name == "lab-tiny") {
         c.world = "lab";
+        c.max_range_m = 4.0;
+        c.pan_sweep_deg = {-45, -15, 15, 45, 15, -15};
         if (name == "lab-tiny") {
             c.runs = 2;
             c.submaps = 4;
@@ -407,7 +409,7 @@ private:
             const double rx = d / 2, ry = d / 2 * rng.uniform(0.6, 1.0);
             stamp(x, y, rx, ry, rng.uniform(0, M_PI), d * rng.uniform(0.35, 0.6),
                   static_cast<std::uint16_t>(kRock + k), static_cast<std::uint32_t>(k + 100), true);
-            keep_out_.push_back({x, y, rx + 0.45});
+            keep_out_.push_back({x, y, rx + 0.4});
         }
     }
 
@@ -475,7 +477,8 @@ struct Pose2 {
 
 class PathPlanner {
 public:
-    PathPlanner(const World& w, Rng& rng, double margin) : w_(w), rng_(rng), margin_(margin) {}
+    PathPlanner(const World& w, Rng& rng, double margin, double wander)
+        : w_(w), rng_(rng), margin_(margin), wander_(wander) {}
 
     Pose2 start() {
         for (int attempt = 0; attempt < 1000; ++attempt) {
@@ -486,34 +489,54 @@ public:
         return {w_.size() / 2, w_.size() / 2, 0};
     }
 
-    // Advances by `step` on a smooth curve that keeps away from walls, rocks and craters.
+    // Advances by `step` on a smooth curve that keeps away from walls, rocks and craters;
+    // when every driveable arc is blocked, turns on the spot (skid steering).
     Pose2 advance(const Pose2& p, double step) {
-        curvature_ += -0.15 * curvature_ + 0.25 * rng_.normal();
-        // Look ahead at candidate headings; steer towards the one with most clearance,
-        // blended with the wandering curvature.
-        double best_score = -1e9, best_turn = 0;
-        for (int k = -6; k <= 6; ++k) {
-            const double turn = k * 0.12;
-            const double yaw = p.yaw + turn;
-            double clear = 1e9;
-            for (double d = 0.3; d <= 2.0; d += 0.3) {
-                clear = std::min(clear, clearance(p.x + d * std::cos(yaw), p.y + d * std::sin(yaw)));
-            }
-            const double score = std::min(clear, 1.0) * 3 - std::abs(turn - curvature_ * step * 4);
+        curvature_ += -0.15 * curvature_ + wander_ * rng_.normal();
+        const double max_turn = step / 0.6;  // min turn radius 0.6 m while driving
+        const double desired = std::clamp(curvature_ * step, -max_turn, max_turn);
+        double best_score = -1e9, best_turn = 0, best_clear = -1e9;
+        for (int k = -4; k <= 4; ++k) {
+            const double turn = k * max_turn / 4;
+            const double clear = clearance_along(p, p.yaw + turn, 1.2);
+            const double score = std::min(clear, 0.6) * 5 - std::abs(turn - desired) / max_turn;
             if (score > best_score) {
                 best_score = score;
                 best_turn = turn;
+                best_clear = clear;
             }
         }
-        const double dyaw = std::clamp(best_turn, -step / 0.6, step / 0.6);  // min turn radius 0.6 m
-        Pose2 q{p.x, p.y, p.yaw + 0.5 * dyaw};
+        Pose2 q = p;
+        if (best_clear < 0.05) {
+            // Spot turn towards the freest direction, at most 0.35 rad per frame.
+            double free_dir = 0, free_clear = -1e9;
+            for (int k = 1; k < 21; ++k) {
+                const double turn = (k % 2 ? 1 : -1) * ((k + 1) / 2) * (M_PI / 10);
+                const double clear = clearance_along(p, p.yaw + turn, 1.5);
+                if (clear > free_clear + 1e-9) {
+                    free_clear = clear;
+                    free_dir = turn;
+                }
+            }
+            q.yaw = std::remainder(p.yaw + std::clamp(free_dir, -0.35, 0.35), 2 * M_PI);
+            curvature_ = 0;
+            return q;
+        }
+        q.yaw = p.yaw + 0.5 * best_turn;
         q.x += step * std::cos(q.yaw);
         q.y += step * std::sin(q.yaw);
-        q.yaw = std::remainder(p.yaw + dyaw, 2 * M_PI);
+        q.yaw = std::remainder(p.yaw + best_turn, 2 * M_PI);
         return q;
     }
 
 private:
+    double clearance_along(const Pose2& p, double yaw, double length) const {
+        double clear = 1e9;
+        for (double d = 0.15; d <= length + 1e-9; d += 0.15) {
+            clear = std::min(clear, clearance(p.x + d * std::cos(yaw), p.y + d * std::sin(yaw)));
+        }
+        return clear;
+    }
     double clearance(double x, double y) const {
         double c = std::min({x - margin_, y - margin_, w_.size() - margin_ - x, w_.size() - margin_ - y});
         for (const auto& d : w_.keep_out()) c = std::min(c, std::hypot(x - d.x, y - d.y) - d.r);
@@ -522,7 +545,7 @@ private:
 
     const World& w_;
     Rng& rng_;
-    double margin_;
+    double margin_, wander_;
     double curvature_ = 0;
 };
 
@@ -551,8 +574,10 @@ std::uint8_t to_byte(float v) { return static_cast<std::uint8_t>(std::clamp(std:
 
 // Builds the submaps of one run and hands them to `rw`.
 void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw) {
+    // Separate streams: the path and odometry do not change when the sensor model does.
     Rng rng(mix(c.seed, 1000 + static_cast<std::uint64_t>(run)));
-    PathPlanner planner(world, rng, world.lab() ? 0.7 : 6.0);
+    Rng sensor_rng(mix(c.seed, 5000 + static_cast<std::uint64_t>(run)));
+    PathPlanner planner(world, rng, world.lab() ? 0.7 : 6.0, c.path_wander);
     Pose2 p2 = planner.start();
     Eigen::Isometry3d T_gt = base_pose(world, p2);
     Eigen::Isometry3d T_odom = T_gt;  // odometry starts at the true pose
@@ -588,7 +613,12 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
         };
         double dist = 0, var = 0;
         bool first = true;
-        while (first || (dist < c.submap_distance_m && std::sqrt(var) < c.submap_sigma_m)) {
+        int frames_in_submap = 0;
+        // Turning on the spot adds frames but no distance; cap the frames per submap.
+        const int max_frames = static_cast<int>(2.5 * c.submap_distance_m / c.frame_step_m) + 1;
+        while (first || (dist < c.submap_distance_m && std::sqrt(var) < c.submap_sigma_m &&
+                         frames_in_submap < max_frames)) {
+            ++frames_in_submap;
             if (!first) {
                 // Drive one step: true motion, then odometry with noise on the increment.
                 const Pose2 next = planner.advance(p2, c.frame_step_m);
@@ -638,10 +668,10 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
                         continue;
                     }
                     const Eigen::Vector3d p_w = T_w_cam.translation() + t * dir_w;
-                    if (rng.uniform() < c.hole_probability || world.stereo_hole(p_w)) continue;
+                    if (sensor_rng.uniform() < c.hole_probability || world.stereo_hole(p_w)) continue;
                     // Stereo depth noise: sigma_z = z^2 sigma_d / (f b).
                     const double sigma_z = depth * depth * c.disparity_sigma_px / (c.focal_px * c.baseline_m);
-                    const double z_noisy = depth + sigma_z * rng.normal();
+                    const double z_noisy = depth + sigma_z * sensor_rng.normal();
                     const Eigen::Vector3d p_sub = T_sub_cam * (rc * z_noisy);
                     const Rgb col = world.colour(p_w);
                     ColoredPoint q;

@@ -35,6 +35,7 @@ struct SimConfig {
 
     // Rover and submaps.
     double frame_step_m = 0.1;      // distance driven between frames
+    double path_wander = 0.1;       // curvature noise per frame [1/m]; stationary std ~2x this
     double submap_distance_m = 1.2; // new submap after this distance...
     double submap_sigma_m = 0.06;   // ...or when the predicted odometry std exceeds this
     double voxel_m = 0.04;          // cloud resolution

@@ -1,7 +1,5 @@
 #pragma once
-// Evaluating the reference matcher on a dataset view (issue 4) and scoring stored per-pair
-// estimates against any reference (SPEC §5: errors and p are computed from the estimated
-// transforms, so one observation serves gt and odometry, and any e*/m*).
+// Evaluating the reference matcher on a dataset view (issue 4). Scoring: scoring/scoring.hpp.
 
 #include <memory>
 #include <optional>
@@ -11,52 +9,13 @@
 #include "dataset/dataset.hpp"
 #include "matcher/matcher.hpp"
 #include "measure/measure.hpp"
+#include "scoring/scoring.hpp"
 #include "params/parameter_space.hpp"
 #include "store/observation_store.hpp"
 
 namespace maptune::evaluation {
 
 inline constexpr const char* kMatcherId = "lru_matcher";
-
-// "run00/submap003|run00/submap004": the id of a pair's result in the store.
-std::string pair_id(const dataset::SubmapPair& pair);
-
-// Default m* (SPEC §2 asks for one derived from the data): the number of pairs of the view
-// whose ground-truth overlap is at least `min_overlap` — the matches a good matcher can find.
-// At least 1.
-double derive_m_star(const std::vector<dataset::SubmapPair>& pairs, double min_overlap = 0.3);
-
-struct ErrorStats {
-    double mean = 0, median = 0, p90 = 0, max = 0;  // over matched pairs
-};
-
-struct PairScore {
-    std::string pair_id;
-    bool matched = false;
-    store::PairStatus status = store::PairStatus::kOk;
-    std::string reason;
-    double overlap = 0;       // gt overlap of the pair
-    double e_t = 0, e_r = 0;  // [m], [rad]; matched pairs only
-    double d = 0;             // [m] size of submap B
-    double rating = 0;        // r_i; matched pairs only
-    double duration_s = 0;
-};
-
-struct ScoreReport {
-    measure::MeasureSettings settings;
-    measure::Score score;
-    std::size_t pairs = 0, matched = 0, failed = 0, timeouts = 0;
-    std::size_t missing = 0;  // pairs of the view without a result in the observation
-    ErrorStats e_t, e_r;
-    std::vector<PairScore> per_pair;
-};
-
-// Scores per-pair results against the reference transforms of `pairs` (matched by pair id).
-// d of each pair is the dataset's size of submap B.
-ScoreReport score_observation(const dataset::Dataset& dataset,
-                              const std::vector<dataset::SubmapPair>& pairs,
-                              const std::vector<store::PairRecord>& results,
-                              const measure::MeasureSettings& settings);
 
 // Fingerprint of every non-optimized matcher setting that changes results: part of the
 // matcher version in observation keys, so different settings never share an observation.

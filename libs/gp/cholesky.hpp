@@ -17,7 +17,7 @@ std::string to_string(CholeskyBackend backend);
 bool cholmod_available();
 
 class Cholesky {
-public:
+  public:
     virtual ~Cholesky() = default;
     virtual std::unique_ptr<Cholesky> clone() const = 0;
 
@@ -41,7 +41,7 @@ public:
 std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend);
 
 class EigenCholesky final : public Cholesky {
-public:
+  public:
     std::unique_ptr<Cholesky> clone() const override;
     bool compute(const Eigen::MatrixXd& a) override;
     bool append(const Eigen::VectorXd& cross, double diag) override;
@@ -54,7 +54,7 @@ public:
     // Rank-1 update (sigma = +1) or downdate (sigma = -1) of A ± v vᵀ in O(n²).
     bool rank_update(const Eigen::VectorXd& v, double sigma);
 
-private:
+  private:
     void reserve(Eigen::Index n);
     auto lower() const { return l_.topLeftCorner(n_, n_).triangularView<Eigen::Lower>(); }
 

@@ -13,7 +13,7 @@ namespace maptune::gp {
 namespace {
 
 class CholmodCholesky final : public Cholesky {
-public:
+  public:
     CholmodCholesky() {
         cholmod_start(&common_);
         common_.nmethods = 1;
@@ -87,7 +87,7 @@ public:
         return 2.0 * sum;
     }
 
-private:
+  private:
     void free_factor() {
         if (factor_ != nullptr) cholmod_free_factor(&factor_, &common_);
     }
@@ -96,8 +96,8 @@ private:
         free_factor();
         const auto n = static_cast<std::size_t>(a_.rows());
         if (n == 0) return false;
-        cholmod_sparse* a = cholmod_allocate_sparse(n, n, n * (n + 1) / 2, 1, 1, -1, CHOLMOD_REAL,
-                                                    &common_);
+        cholmod_sparse* a =
+            cholmod_allocate_sparse(n, n, n * (n + 1) / 2, 1, 1, -1, CHOLMOD_REAL, &common_);
         auto* ap = static_cast<int*>(a->p);
         auto* ai = static_cast<int*>(a->i);
         auto* ax = static_cast<double*>(a->x);

@@ -21,10 +21,11 @@ enum class MeanKind {
 
 // Hyperparameter fitting: maximum a posteriori in log space by L-BFGS-B, several starts.
 struct FitOptions {
-    int random_starts = 2;     // starts drawn from the prior, in addition to the fixed ones
-    int max_iterations = 60;   // L-BFGS-B iterations per start
-    Eigen::Index max_points = 300;  // fit on a seeded random subset above this (O(n³) per step)
-    bool use_priors = true;    // log-normal priors; false gives plain type-II maximum likelihood
+    int random_starts = 1;          // random starts, in addition to the warm start and a fixed one
+    int max_iterations = 50;        // L-BFGS-B iterations per start
+    Eigen::Index max_points = 200;  // fit on a seeded random subset above this (O(n³) per step)
+    bool use_priors = true;   // log-normal priors; false gives plain type-II maximum likelihood
+    bool fixed_start = true;  // also start from a fixed moderate point (off for warm refits)
     // Bounds, in unit-cube units for length scales and standardized units for variances.
     double min_length_scale = 1e-2;
     double max_length_scale = 1e2;
@@ -44,7 +45,7 @@ struct FitResult {
     Hyperparameters hyperparameters;
     double neg_log_posterior = 0.0;  // of the (sub)set used for fitting
     int starts = 0;
-    int evaluations = 0;            // objective+gradient evaluations over all starts
+    int evaluations = 0;  // objective+gradient evaluations over all starts
     Eigen::Index points_used = 0;
 };
 
@@ -67,7 +68,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
 double length_scale_prior_mean(int dim);
 
 class GaussianProcess {
-public:
+  public:
     explicit GaussianProcess(int dim, GpOptions options = {});
     GaussianProcess(const GaussianProcess& other);
     GaussianProcess& operator=(const GaussianProcess& other);
@@ -100,19 +101,19 @@ public:
     void predict(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean, Eigen::VectorXd& variance) const;
     PointPrediction predict_with_gradient(const Eigen::VectorXd& x) const;
 
-private:
+  private:
     bool refactorize();
     void update_alpha();
 
     int dim_;
     GpOptions options_;
     Hyperparameters hp_;
-    Eigen::MatrixXd x_;        // d×n inputs
-    Eigen::VectorXd y_;        // standardized outputs
-    Eigen::VectorXd alpha_;    // K⁻¹ y
+    Eigen::MatrixXd x_;      // d×n inputs
+    Eigen::VectorXd y_;      // standardized outputs
+    Eigen::VectorXd alpha_;  // K⁻¹ y
     double y_offset_ = 0.0;
     double y_scale_ = 1.0;
-    double jitter_ = 0.0;      // added to the diagonal when K is numerically singular
+    double jitter_ = 0.0;  // added to the diagonal when K is numerically singular
     std::unique_ptr<Cholesky> chol_;
 };
 

@@ -87,6 +87,10 @@ std::vector<Assignment> Scheduler::schedule(double now) {
             if (w.info.matcher_id != job.spec.matcher_id || w.info.space_hash != job.spec.space_hash) {
                 continue;
             }
+            if (!job.spec.matcher_version.empty() &&
+                w.info.matcher_version != job.spec.matcher_version) {
+                continue;
+            }
             const int free = w.info.slots - static_cast<int>(w.tasks.size());
             if (free <= 0) continue;
             if (best == nullptr || w.tasks.size() < best->tasks.size()) best = &w;

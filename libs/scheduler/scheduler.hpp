@@ -39,6 +39,7 @@ struct JobSpec {
     std::string dataset_id;
     std::string view;
     std::string matcher_id;
+    std::string matcher_version;  // empty: any version of matcher_id
     std::string space_hash;
     std::vector<std::pair<std::string, double>> params;  // full rounded set
     std::vector<std::string> pair_ids;                   // results come back in this order

@@ -14,6 +14,14 @@ int main(int argc, char** argv) {
 #ifdef MAPTUNE_HAVE_BO
     maptune::cli::add_bo_bench_command(app, exit_code);
 #endif
+#ifdef MAPTUNE_HAVE_SERVICES
+    maptune::cli::add_run_command(app, exit_code);
+    maptune::cli::add_watch_command(app, exit_code);
+#endif
+#ifdef MAPTUNE_HAVE_EVALUATION
+    maptune::cli::add_evaluate_command(app, exit_code);
+    maptune::cli::add_sweep_command(app, exit_code);
+#endif
 #ifdef MAPTUNE_HAVE_DATASET
     maptune::cli::add_dataset_command(app, exit_code);
 #endif

@@ -1,9 +1,9 @@
+#include "bo/acquisition.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
-
-#include "bo/acquisition.hpp"
 
 namespace maptune::bo {
 namespace {

@@ -1,10 +1,11 @@
+#include "bo/optimizer.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <set>
 
 #include "bo/benchmark.hpp"
-#include "bo/optimizer.hpp"
 #include "bo/test_functions.hpp"
 
 namespace maptune::bo {
@@ -32,7 +33,8 @@ OptimizerOptions fast_options(std::uint64_t seed) {
 
 TEST(OptimizerTest, DeterministicGivenSeed) {
     const TestFunction fn = branin();
-    Optimizer a(fn.space, fast_options(5)), b(fn.space, fast_options(5)), c(fn.space, fast_options(6));
+    Optimizer a(fn.space, fast_options(5)), b(fn.space, fast_options(5)),
+        c(fn.space, fast_options(6));
     const auto pa = run(a, fn, 20, 2);
     const auto pb = run(b, fn, 20, 2);
     const auto pc = run(c, fn, 20, 2);
@@ -95,7 +97,9 @@ TEST(OptimizerTest, PendingPointsAreAccountedForAcrossAsks) {
     const SearchSpace& space = opt.space();
     for (std::size_t i = 0; i < pending.size(); ++i) {
         for (std::size_t j = i + 1; j < pending.size(); ++j) {
-            const double dist = (space.from_values(pending[i].values) - space.from_values(pending[j].values)).norm();
+            const double dist =
+                (space.from_values(pending[i].values) - space.from_values(pending[j].values))
+                    .norm();
             EXPECT_GT(dist, 1e-3) << i << " " << j;
         }
     }
@@ -162,9 +166,8 @@ TEST(OptimizerTest, TellIsSingleUseAndCancelWithdraws) {
 }
 
 TEST(OptimizerTest, MixedIntegerLogSpaceProposalsStayValid) {
-    const std::vector<ParameterSpec> specs = {{"r", 0.1, 2.0, false, true},
-                                              {"n", 3, 300, true, true},
-                                              {"t", 0.0, 1.0}};
+    const std::vector<ParameterSpec> specs = {
+        {"r", 0.1, 2.0, false, true}, {"n", 3, 300, true, true}, {"t", 0.0, 1.0}};
     OptimizerOptions o = fast_options(9);
     o.direction = Direction::maximize;
     Optimizer opt(specs, o);

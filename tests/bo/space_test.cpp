@@ -1,10 +1,11 @@
+#include "bo/space.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <set>
 
 #include "bo/quasi_random.hpp"
-#include "bo/space.hpp"
 
 namespace maptune::bo {
 namespace {

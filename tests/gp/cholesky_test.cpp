@@ -1,10 +1,10 @@
+#include "gp/cholesky.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <random>
-
-#include "gp/cholesky.hpp"
 
 namespace maptune::gp {
 namespace {
@@ -18,7 +18,7 @@ Eigen::MatrixXd random_spd(Eigen::Index n, std::uint64_t seed) {
 }
 
 class CholeskyTest : public ::testing::TestWithParam<CholeskyBackend> {
-protected:
+  protected:
     void SetUp() override {
         if (GetParam() == CholeskyBackend::cholmod && !cholmod_available()) {
             GTEST_SKIP() << "built without CHOLMOD";

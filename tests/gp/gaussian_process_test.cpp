@@ -1,11 +1,11 @@
+#include "gp/gaussian_process.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <cmath>
 #include <random>
-
-#include "gp/gaussian_process.hpp"
 
 namespace maptune::gp {
 namespace {
@@ -48,7 +48,8 @@ double log_rosenbrock(const Eigen::VectorXd& u) {
 }
 
 GaussianProcess make_gp(int dim, const Hyperparameters& hp, const Eigen::MatrixXd& x,
-                        const Eigen::VectorXd& y, CholeskyBackend backend = CholeskyBackend::eigen) {
+                        const Eigen::VectorXd& y,
+                        CholeskyBackend backend = CholeskyBackend::eigen) {
     GpOptions options;
     options.backend = backend;
     GaussianProcess gp(dim, options);
@@ -68,7 +69,8 @@ Hyperparameters some_hyperparameters() {
 TEST(GaussianProcessTest, PosteriorMatchesDenseSolve) {
     std::mt19937_64 rng(7);
     const Eigen::MatrixXd x = uniform_points(3, 30, rng);
-    const Eigen::VectorXd y = Eigen::VectorXd::Random(30) * 4.0 + Eigen::VectorXd::Constant(30, 2.0);
+    const Eigen::VectorXd y =
+        Eigen::VectorXd::Random(30) * 4.0 + Eigen::VectorXd::Constant(30, 2.0);
     const Eigen::MatrixXd xs = uniform_points(3, 17, rng);
     const Hyperparameters hp = some_hyperparameters();
     for (auto backend : {CholeskyBackend::eigen, CholeskyBackend::cholmod}) {
@@ -234,24 +236,26 @@ TEST_P(NoCollapseTest, FitStaysInsideBoundsAndPredicts) {
     for (Eigen::Index i = 0; i < 500; ++i) yt(i) = c.f(xt.col(i));
     GaussianProcess gp(c.dim);
     gp.set_data(x, y);
-    const double start_nlp = neg_log_posterior(x, (y.array() - gp.output_offset()) / gp.output_scale(),
-                                               gp.hyperparameters().to_log(), gp.options().fit, nullptr);
+    const double start_nlp =
+        neg_log_posterior(x, (y.array() - gp.output_offset()) / gp.output_scale(),
+                          gp.hyperparameters().to_log(), gp.options().fit, nullptr);
     const FitResult fit = gp.fit(3);
     const Hyperparameters& hp = fit.hyperparameters;
     const FitOptions& o = gp.options().fit;
     EXPECT_LT(fit.neg_log_posterior, start_nlp - 1.0) << "stalled at the start point";
-    EXPECT_GT(hp.length_scales.minCoeff(), 2.0 * o.min_length_scale) << hp.length_scales.transpose();
+    EXPECT_GT(hp.length_scales.minCoeff(), 2.0 * o.min_length_scale)
+        << hp.length_scales.transpose();
     EXPECT_LT(hp.noise_variance, 0.1) << "white-noise model";
     EXPECT_GT(holdout_r2(gp, xt, yt), c.min_r2)
         << "l = " << hp.length_scales.transpose() << " s2 = " << hp.signal_variance
         << " noise = " << hp.noise_variance;
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Functions, NoCollapseTest,
-    ::testing::Values(CollapseCase{"hartmann6", 6, 100, hartmann6, 0.5},
-                      CollapseCase{"log_rosenbrock9", 9, 150, log_rosenbrock, 0.5}),
-    [](const auto& tpi) { return std::string(tpi.param.name); });
+INSTANTIATE_TEST_SUITE_P(Functions, NoCollapseTest,
+                         ::testing::Values(CollapseCase{"hartmann6", 6, 100, hartmann6, 0.5},
+                                           CollapseCase{"log_rosenbrock9", 9, 150, log_rosenbrock,
+                                                        0.5}),
+                         [](const auto& tpi) { return std::string(tpi.param.name); });
 
 }  // namespace
 }  // namespace maptune::gp

@@ -13,6 +13,7 @@ JobSpec job(std::size_t pairs, const std::string& space = "S1") {
     s.dataset_id = "ds";
     s.view = "complete";
     s.matcher_id = "lru_matcher";
+    s.matcher_version = "1";
     s.space_hash = space;
     s.params = {{"r_N", 0.2}};
     for (std::size_t i = 0; i < pairs; ++i) s.pair_ids.push_back("p" + std::to_string(i));
@@ -88,6 +89,9 @@ TEST(Scheduler, OnlyCompatibleWorkersGetTasks) {
     s.heartbeat(other_matcher, 0);
     s.submit("k", job(3), "opt", 0);
     EXPECT_TRUE(s.schedule(0).empty());
+    WorkerInfo old_version = worker("old_version");
+    old_version.matcher_version = "0";
+    s.heartbeat(old_version, 0.5);
     s.heartbeat(worker("good"), 0.5);
     const auto a = s.schedule(0.5);
     ASSERT_EQ(a.size(), 1u);

@@ -1,0 +1,89 @@
+#include "scoring/scoring.hpp"
+
+#include <algorithm>
+#include <map>
+
+namespace maptune::scoring {
+namespace {
+
+ErrorStats error_stats(std::vector<double> v) {
+    ErrorStats s;
+    if (v.empty()) return s;
+    std::sort(v.begin(), v.end());
+    double sum = 0;
+    for (double x : v) sum += x;
+    s.mean = sum / static_cast<double>(v.size());
+    s.median = v[v.size() / 2];
+    s.p90 = v[std::min(v.size() - 1, static_cast<std::size_t>(0.9 * static_cast<double>(v.size())))];
+    s.max = v.back();
+    return s;
+}
+
+Eigen::Isometry3d to_isometry(const Eigen::Matrix4d& m) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.matrix() = m;
+    return T;
+}
+
+}  // namespace
+
+std::string pair_id(const dataset::SubmapPair& pair) { return pair.id_a + "|" + pair.id_b; }
+
+double derive_m_star(const std::vector<dataset::SubmapPair>& pairs, double min_overlap) {
+    std::size_t n = 0;
+    for (const auto& p : pairs) n += p.overlap >= min_overlap ? 1 : 0;
+    return static_cast<double>(std::max<std::size_t>(n, 1));
+}
+
+ScoreReport score_observation(const dataset::Dataset& dataset,
+                              const std::vector<dataset::SubmapPair>& pairs,
+                              const std::vector<store::PairRecord>& results,
+                              const measure::MeasureSettings& settings) {
+    std::map<std::string, const store::PairRecord*> by_id;
+    for (const auto& r : results) by_id[r.pair_id] = &r;
+    ScoreReport report;
+    report.settings = settings;
+    report.pairs = pairs.size();
+    std::vector<measure::MatchError> errors;
+    std::vector<double> e_t, e_r;
+    for (const auto& p : pairs) {
+        PairScore ps;
+        ps.pair_id = pair_id(p);
+        ps.overlap = p.overlap;
+        ps.d = dataset.manifest().runs[static_cast<std::size_t>(p.run)]
+                   .submaps[static_cast<std::size_t>(p.b)]
+                   .size;
+        const auto it = by_id.find(ps.pair_id);
+        if (it == by_id.end()) {
+            ++report.missing;
+            ps.status = store::PairStatus::kFailed;
+            ps.reason = "no result stored for this pair";
+            report.per_pair.push_back(ps);
+            continue;
+        }
+        const store::PairRecord& r = *it->second;
+        ps.matched = r.matched;
+        ps.status = r.status;
+        ps.reason = r.reason;
+        ps.duration_s = r.duration_s;
+        report.failed += r.status == store::PairStatus::kFailed ? 1 : 0;
+        report.timeouts += r.status == store::PairStatus::kTimeout ? 1 : 0;
+        if (r.matched) {
+            const measure::MatchError e = measure::pair_error(p.T_a_b, to_isometry(r.T_a_b_est), ps.d);
+            ps.e_t = e.e_t;
+            ps.e_r = e.e_r;
+            ps.rating = measure::rate_match(e, settings.e_star);
+            errors.push_back(e);
+            e_t.push_back(e.e_t);
+            e_r.push_back(e.e_r);
+        }
+        report.per_pair.push_back(ps);
+    }
+    report.matched = errors.size();
+    report.score = measure::score(errors, settings);
+    report.e_t = error_stats(e_t);
+    report.e_r = error_stats(e_r);
+    return report;
+}
+
+}  // namespace maptune::scoring

@@ -1,0 +1,170 @@
+#include "embedded.hpp"
+
+#include <ctime>
+#include <iostream>
+#include <random>
+
+#include "dataset/simulator.hpp"
+#include "matcher_worker.hpp"
+#include "params/export.hpp"
+#include "params/yaml_util.hpp"
+#include "runtime.hpp"
+#include "sample_db.hpp"
+#include "dataset_server.hpp"
+
+namespace maptune::services {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string utc_stamp() {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", &tm);
+    return buf;
+}
+
+void print_summary(const experiment::Experiment& e, const RunSummary& s, const fs::path& run_dir) {
+    std::cout << "\n" << s.evaluations.size() << " evaluations (" << s.stop_reason << "), m* = "
+              << params::format_fixed(s.m_star, 1) << "\n";
+    if (s.best < 0) {
+        std::cout << "no successful evaluation\n";
+        return;
+    }
+    const EvaluationRecord& best = s.evaluations[static_cast<std::size_t>(s.best)];
+    // The baseline: the first start point, when it was evaluated.
+    const EvaluationRecord* baseline = nullptr;
+    if (!e.start_points.empty()) {
+        const std::string key = e.space.canonical_key(e.space.round(e.start_points.front()));
+        for (const auto& r : s.evaluations) {
+            if (!r.failed && e.space.canonical_key(r.params) == key) baseline = &r;
+        }
+    }
+    std::cout << "\nparameter      " << (baseline ? "   baseline" : "") << "       best\n";
+    for (const auto& spec : e.space.specs()) {
+        const int dec = spec.type == params::ParamType::kInt ? 0 : 2;
+        std::cout << spec.name << std::string(15 - std::min<std::size_t>(14, spec.name.size()), ' ');
+        if (baseline) {
+            const std::string b = params::format_fixed(baseline->params.get(spec.name), dec);
+            std::cout << std::string(11 - std::min<std::size_t>(10, b.size()), ' ') << b;
+        }
+        const std::string v = params::format_fixed(best.params.get(spec.name), dec);
+        std::cout << std::string(11 - std::min<std::size_t>(10, v.size()), ' ') << v << "\n";
+    }
+    auto score_line = [&](const char* label, double baseline_v, double best_v, int dec) {
+        std::cout << label << std::string(15 - std::string(label).size(), ' ');
+        if (baseline) {
+            const std::string b = params::format_fixed(baseline_v, dec);
+            std::cout << std::string(11 - std::min<std::size_t>(10, b.size()), ' ') << b;
+        }
+        const std::string v = params::format_fixed(best_v, dec);
+        std::cout << std::string(11 - std::min<std::size_t>(10, v.size()), ' ') << v << "\n";
+    };
+    score_line("p", baseline ? baseline->p : 0, best.p, 4);
+    score_line("m", baseline ? static_cast<double>(baseline->m) : 0, static_cast<double>(best.m), 0);
+    score_line("eps", baseline ? baseline->eps : 0, best.eps, 4);
+    std::cout << "\nbest found at evaluation " << best.number << "; written to "
+              << (run_dir / "best_params.yaml").string() << " and best_params.ros2.yaml\n";
+}
+
+}  // namespace
+
+int run_embedded(const EmbeddedOptions& options) {
+    install_stop_signals();
+    experiment::Experiment e;
+    try {
+        e = experiment::load_experiment(options.experiment_file);
+    } catch (const params::ConfigError& err) {
+        std::cerr << "maptune run: " << err.what() << "\n";
+        return 2;
+    }
+    if (!fs::exists(fs::path(e.dataset_dir) / "manifest.yaml")) {
+        if (!e.generate) {
+            std::cerr << "maptune run: " << e.dataset_dir << ": no dataset there, and the experiment "
+                      << "has no dataset.generate section\n";
+            return 2;
+        }
+        dataset::SimConfig config = dataset::sim_preset(e.generate->preset);
+        if (e.generate->runs > 0) config.runs = e.generate->runs;
+        if (e.generate->submaps > 0) config.submaps = e.generate->submaps;
+        config.seed = e.generate->seed;
+        std::cout << "generating dataset " << e.dataset_dir << " (" << e.generate->preset << ", "
+                  << config.runs << " runs x " << config.submaps << " submaps, seed " << config.seed
+                  << ") ..." << std::endl;
+        const double t0 = now_s();
+        dataset::generate_dataset(config, e.dataset_dir);
+        std::cout << "generated in " << params::format_fixed(now_s() - t0, 1) << " s" << std::endl;
+    }
+    const fs::path run_dir = options.run_dir.empty() ? fs::path("runs") / (e.name + "-" + utc_stamp())
+                                                     : options.run_dir;
+    fs::create_directories(run_dir);
+    const std::string db = options.db_path.empty() ? (run_dir / "observations.db").string() : options.db_path;
+    int domain = options.domain_id;
+    if (domain < 0) {
+        std::random_device rd;
+        domain = std::uniform_int_distribution<int>(1, 200)(rd);
+    }
+    const int n_workers = options.workers > 0 ? options.workers : e.workers;
+    std::cout << "run directory " << run_dir.string() << ", store " << db << ", DDS domain " << domain
+              << " (loopback), " << n_workers << (options.analytic ? " analytic" : "") << " worker(s)"
+              << std::endl;
+
+    auto participant = [&](const std::string& name) {
+        return std::make_unique<dds::Participant>(dds::ParticipantOptions{domain, "", "maptune_loopback", name});
+    };
+    try {
+        auto server_p = participant("dataset_server");
+        DatasetServer server(*server_p, {{e.dataset_dir}, 512 * 1024, ""});
+
+        auto db_p = participant("sample_db");
+        DatasetMirror db_mirror(*db_p, run_dir / "cache", "sample_db");
+        SampleDbOptions db_options;
+        db_options.store_path = db;
+        db_options.spaces = {e.space};
+        SampleDb sample_db(*db_p, db_mirror, db_options);
+
+        matcher::MatcherSettings settings;
+        settings.threads = e.matcher_threads > 0 ? e.matcher_threads
+                                                 : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / n_workers);
+        settings.pair_time_limit_s = e.pair_time_limit_s;
+        settings.total_time_limit_s = e.total_time_limit_s;
+        std::vector<std::unique_ptr<dds::Participant>> worker_ps;
+        std::vector<std::unique_ptr<DatasetMirror>> mirrors;
+        std::vector<std::unique_ptr<WorkerBackend>> backends;
+        std::vector<std::unique_ptr<MatcherWorker>> workers;
+        for (int i = 0; i < n_workers; ++i) {
+            worker_ps.push_back(participant("worker" + std::to_string(i)));
+            mirrors.push_back(std::make_unique<DatasetMirror>(*worker_ps.back(), run_dir / "cache",
+                                                              "worker" + std::to_string(i)));
+            // Embedded workers read the dataset directory directly: no copy.
+            mirrors.back()->add_local(e.dataset_dir);
+            if (options.analytic) {
+                backends.push_back(std::make_unique<AnalyticBackend>(*mirrors.back(), e.space));
+            } else {
+                backends.push_back(std::make_unique<LruBackend>(*mirrors.back(), e.space, settings));
+            }
+            workers.push_back(std::make_unique<MatcherWorker>(*worker_ps.back(), *backends.back(),
+                                                              WorkerOptions{"", 1, 0.5}));
+        }
+
+        auto opt_p = participant("optimizer");
+        DatasetMirror opt_mirror(*opt_p, run_dir / "cache", "optimizer");
+        OptimizerServiceOptions opt_options;
+        opt_options.experiment = e;
+        opt_options.run_dir = run_dir;
+        opt_options.matcher_id = options.analytic ? "analytic" : "lru_matcher";
+        opt_options.progress_bar = options.progress_bar;
+        OptimizerService optimizer(*opt_p, opt_mirror, opt_options);
+        const RunSummary summary = optimizer.run();
+        print_summary(e, summary, run_dir);
+        return summary.best >= 0 ? 0 : 1;
+    } catch (const std::exception& err) {
+        std::cerr << "maptune run: " << err.what() << "\n";
+        return 1;
+    }
+}
+
+}  // namespace maptune::services

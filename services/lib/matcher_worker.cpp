@@ -1,0 +1,104 @@
+#include "matcher_worker.hpp"
+
+#include "dds/convert.hpp"
+#include "runtime.hpp"
+
+namespace maptune::services {
+
+namespace v1 = msg::v1;
+
+MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backend, WorkerOptions options)
+    : backend_(backend), options_(std::move(options)) {
+    if (options_.worker_id.empty()) options_.worker_id = make_id("worker");
+    options_.slots = std::max(1, options_.slots);
+    results_ = participant.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
+    // Heartbeats are reliable too: a lost one must not look like a dead worker.
+    status_ = participant.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
+    participant.reader<v1::EvaluationTaskPubSubType>(
+        dds::topics::kEvaluationTask, dds::TopicQos::kReliable, [this](const v1::EvaluationTask& t) {
+            if (t.worker_id() != options_.worker_id) return;
+            std::lock_guard<std::mutex> lock(mutex_);
+            queue_.push_back(t);
+            cv_.notify_one();
+        });
+    for (int i = 0; i < options_.slots; ++i) threads_.emplace_back([this] { task_loop(); });
+    threads_.emplace_back([this] { heartbeat_loop(); });
+}
+
+MatcherWorker::~MatcherWorker() {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        stop_ = true;
+        cv_.notify_all();
+    }
+    for (auto& t : threads_) t.join();
+}
+
+std::size_t MatcherWorker::tasks_done() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return done_;
+}
+
+void MatcherWorker::publish_status() {
+    v1::WorkerStatus s;
+    s.worker_id(options_.worker_id);
+    s.matcher_id(backend_.matcher_id());
+    s.matcher_version(backend_.matcher_version());
+    s.space_hash(backend_.space().hash());
+    s.slots(static_cast<uint32_t>(options_.slots));
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        s.busy(static_cast<uint32_t>(busy_));
+        s.sequence_number(++sequence_);
+    }
+    status_.write(s);
+}
+
+void MatcherWorker::heartbeat_loop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!stop_) {
+        lock.unlock();
+        publish_status();
+        lock.lock();
+        cv_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [this] { return stop_; });
+    }
+}
+
+void MatcherWorker::task_loop() {
+    for (;;) {
+        v1::EvaluationTask t;
+        {
+            std::unique_lock<std::mutex> lock(mutex_);
+            cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+            if (stop_) return;
+            t = queue_.front();
+            queue_.pop_front();
+            ++busy_;
+        }
+        v1::TaskResult r;
+        r.task_id(t.task_id());
+        r.worker_id(options_.worker_id);
+        if (t.space_hash() != backend_.space().hash()) {
+            r.ok(false);
+            r.error("design space differs: task " + t.space_hash() + ", worker " + backend_.space().hash());
+        } else {
+            TaskSpec spec{t.task_id(), t.dataset_id(), t.view(), dds::from_msg(t.params()), t.pair_ids()};
+            TaskOutcome outcome;
+            try {
+                outcome = backend_.run(spec);
+            } catch (const std::exception& e) {  // a backend bug must not kill the worker
+                outcome.ok = false;
+                outcome.error = std::string("backend threw: ") + e.what();
+            }
+            r.ok(outcome.ok);
+            r.error(outcome.error);
+            r.pairs(dds::to_msg(outcome.pairs));
+        }
+        results_.write(r);
+        std::lock_guard<std::mutex> lock(mutex_);
+        --busy_;
+        ++done_;
+    }
+}
+
+}  // namespace maptune::services

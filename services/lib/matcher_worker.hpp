@@ -1,0 +1,54 @@
+#pragma once
+// matcher_worker: announces itself with heartbeats (id, matcher id and version, design-space
+// hash, slots), runs the tasks assigned to it with its backend on `slots` threads, and
+// returns per-pair results. Any number of workers on any number of machines.
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dds/participant.hpp"
+#include "maptunePubSubTypes.h"
+#include "worker_backend.hpp"
+
+namespace maptune::services {
+
+struct WorkerOptions {
+    std::string worker_id;      // empty: generated
+    int slots = 1;              // tasks run at once
+    double heartbeat_s = 0.5;   // sample_db re-assigns after its lease (default 10 s) of silence
+};
+
+class MatcherWorker {
+public:
+    MatcherWorker(dds::Participant& participant, WorkerBackend& backend, WorkerOptions options = {});
+    ~MatcherWorker();  // finishes running tasks, then stops
+    MatcherWorker(const MatcherWorker&) = delete;
+    MatcherWorker& operator=(const MatcherWorker&) = delete;
+
+    const std::string& id() const { return options_.worker_id; }
+    std::size_t tasks_done() const;
+
+private:
+    void heartbeat_loop();
+    void task_loop();
+    void publish_status();
+
+    WorkerBackend& backend_;
+    WorkerOptions options_;
+    dds::Writer<msg::v1::TaskResult> results_;
+    dds::Writer<msg::v1::WorkerStatus> status_;
+    mutable std::mutex mutex_;
+    std::condition_variable cv_;
+    std::deque<msg::v1::EvaluationTask> queue_;
+    int busy_ = 0;
+    bool stop_ = false;
+    std::size_t done_ = 0;
+    std::uint64_t sequence_ = 0;
+    std::vector<std::thread> threads_;
+};
+
+}  // namespace maptune::services

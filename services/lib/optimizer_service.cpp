@@ -1,0 +1,392 @@
+#include "optimizer_service.hpp"
+
+#include <unistd.h>
+
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "bo/optimizer.hpp"
+#include "dataset/io.hpp"
+#include "dds/convert.hpp"
+#include "params/export.hpp"
+#include "params/yaml_util.hpp"
+#include "runtime.hpp"
+
+namespace maptune::services {
+
+namespace fs = std::filesystem;
+namespace v1 = msg::v1;
+
+namespace {
+
+std::vector<std::string> split(const std::string& line, char sep) {
+    std::vector<std::string> out;
+    std::string cell;
+    std::istringstream in(line);
+    while (std::getline(in, cell, sep)) out.push_back(cell);
+    if (!line.empty() && line.back() == sep) out.emplace_back();
+    return out;
+}
+
+std::string fmt(double v, int decimals = 4) { return params::format_fixed(v, decimals); }
+
+}  // namespace
+
+std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space) {
+    std::ostringstream out;
+    out << "evaluation,p,m,v,eps,failed,from_store,wall_s,origin";
+    for (const auto& s : space.specs()) out << "," << s.name;
+    out << ",error\n";
+    for (const auto& r : records) {
+        out << r.number << "," << params::format_double(r.p) << "," << r.m << ","
+            << params::format_double(r.v) << "," << params::format_double(r.eps) << ","
+            << (r.failed ? 1 : 0) << "," << (r.from_store ? 1 : 0) << "," << fmt(r.wall_s, 3) << ","
+            << r.origin;
+        for (const auto& s : space.specs()) {
+            const auto v = r.params.find(s.name);
+            out << "," << (v ? params::format_double(*v) : "");
+        }
+        std::string error = r.error;
+        for (char& c : error) c = (c == ',' || c == '\n') ? ';' : c;
+        out << "," << error << "\n";
+    }
+    return out.str();
+}
+
+std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params::ParameterSpace& space) {
+    std::vector<EvaluationRecord> out;
+    std::ifstream in(file);
+    if (!in) return out;
+    std::string line;
+    std::getline(in, line);
+    const auto header = split(line, ',');
+    const std::size_t first_param = 9;
+    if (header.size() != first_param + space.size() + 1) {
+        throw params::ConfigError(file.string() + ":1: header does not match the design space; "
+                                  "use another run directory");
+    }
+    int line_no = 1;
+    while (std::getline(in, line)) {
+        ++line_no;
+        const auto c = split(line, ',');
+        if (c.size() != header.size()) {
+            throw params::ConfigError(file.string() + ":" + std::to_string(line_no) + ": expected " +
+                                      std::to_string(header.size()) + " columns");
+        }
+        try {
+            EvaluationRecord r;
+            r.number = std::stoi(c[0]);
+            r.p = std::stod(c[1]);
+            r.m = std::stoul(c[2]);
+            r.v = std::stod(c[3]);
+            r.eps = std::stod(c[4]);
+            r.failed = c[5] == "1";
+            r.from_store = c[6] == "1";
+            r.wall_s = std::stod(c[7]);
+            r.origin = c[8];
+            for (std::size_t i = 0; i < space.size(); ++i) {
+                r.params.set(space.specs()[i].name, std::stod(c[first_param + i]));
+            }
+            r.error = c.back();
+            out.push_back(std::move(r));
+        } catch (const std::exception&) {
+            throw params::ConfigError(file.string() + ":" + std::to_string(line_no) + ": not a number");
+        }
+    }
+    return out;
+}
+
+OptimizerService::OptimizerService(dds::Participant& participant, DatasetMirror& mirror,
+                                   OptimizerServiceOptions options)
+    : participant_(participant), mirror_(mirror), options_(std::move(options)) {
+    if (options_.experiment_id.empty()) options_.experiment_id = options_.experiment.name;
+    requests_ = participant.writer<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest,
+                                                                    dds::TopicQos::kReliable);
+    best_ = participant.writer<v1::BestSoFarPubSubType>(dds::topics::kBestSoFar, dds::TopicQos::kLatched);
+    status_ = participant.writer<v1::OptimizerStatusPubSubType>(dds::topics::kOptimizerStatus,
+                                                               dds::TopicQos::kLatched);
+    participant.reader<v1::ObservationReplyPubSubType>(
+        dds::topics::kObservationReply, dds::TopicQos::kReliable, [this](const v1::ObservationReply& r) {
+            // Replies for other optimizers share the topic: keep ours only.
+            if (r.request_id().rfind(options_.experiment_id + "/", 0) != 0) return;
+            std::lock_guard<std::mutex> lock(mutex_);
+            replies_.push_back(r);
+        });
+    participant.reader<v1::WorkerStatusPubSubType>(
+        dds::topics::kWorkerStatus, dds::TopicQos::kLatched, [this](const v1::WorkerStatus& s) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            workers_[s.worker_id()] = s;
+        });
+}
+
+void OptimizerService::log(const std::string& line) const {
+    if (options_.log) {
+        options_.log(line);
+    } else {
+        std::cout << line << std::endl;
+    }
+}
+
+void OptimizerService::write_files(const RunSummary& summary) const {
+    const auto& e = options_.experiment;
+    dataset::write_file(options_.run_dir / "trials.csv", trials_csv(summary.evaluations, e.space));
+    if (summary.best >= 0) {
+        const auto& b = summary.evaluations[static_cast<std::size_t>(summary.best)];
+        const std::string header = "best of experiment " + options_.experiment_id + ": p = " +
+                                   fmt(b.p) + ", m = " + std::to_string(b.m) + " (evaluation " +
+                                   std::to_string(b.number) + ")";
+        dataset::write_file(options_.run_dir / "best_params.yaml", params::to_plain_yaml(b.params, e.space, header));
+        dataset::write_file(options_.run_dir / "best_params.ros2.yaml",
+                            "# " + header + "\n" + params::to_ros2_yaml(b.params, e.space, "map_matcher"));
+    }
+}
+
+void OptimizerService::publish(const RunSummary& summary, int iteration) {
+    v1::BestSoFar b;
+    b.experiment_id(options_.experiment_id);
+    b.evaluations(static_cast<uint32_t>(summary.evaluations.size()));
+    if (summary.best >= 0) {
+        const auto& best = summary.evaluations[static_cast<std::size_t>(summary.best)];
+        b.best_evaluation(static_cast<uint32_t>(best.number));
+        b.best_p(best.p);
+        b.best_params(dds::to_msg(best.params));
+    }
+    if (summary.predicted_best) {
+        b.predicted_params(dds::to_msg(*summary.predicted_best));
+        b.predicted_mean(summary.predicted_mean);
+        b.predicted_std(summary.predicted_std);
+    }
+    best_.write(b);
+    (void)iteration;
+}
+
+RunSummary OptimizerService::run() {
+    const experiment::Experiment& e = options_.experiment;
+    fs::create_directories(options_.run_dir);
+    RunSummary summary;
+
+    // The dataset: a local directory when there is one, else whatever a server announces.
+    std::string dataset_id = options_.dataset_id;
+    if (dataset_id.empty()) {
+        mirror_.add_local(e.dataset_dir);
+        dataset_id = dataset::Dataset::open(e.dataset_dir).manifest().id;
+    }
+    std::string error;
+    const auto ds = mirror_.open(dataset_id, options_.wait_s, &error);
+    if (!ds) throw std::runtime_error("optimizer: " + error);
+    const auto pairs = ds->pairs(dataset::parse_view(e.view), dataset::parse_reference(e.reference));
+    summary.m_star = e.m_star ? *e.m_star : scoring::derive_m_star(pairs);
+    const measure::MeasureSettings settings{e.e_star, summary.m_star, e.w_v};
+    log("experiment " + options_.experiment_id + ": dataset " + ds->manifest().name + " (" + dataset_id +
+        "), view " + e.view + "/" + e.reference + ", " + std::to_string(pairs.size()) + " pairs, m* = " +
+        fmt(summary.m_star, 1) + (e.m_star ? "" : " (derived: pairs with overlap >= 0.3)") + ", budget " +
+        std::to_string(e.max_evaluations) + " evaluations");
+
+    // A compatible worker tells us the matcher version (part of every observation key).
+    std::string version;
+    auto compatible = [&](int* slots) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        int n = 0;
+        for (const auto& [id, w] : workers_) {
+            if (w.matcher_id() != options_.matcher_id || w.space_hash() != e.space.hash()) continue;
+            version = w.matcher_version();
+            n += static_cast<int>(w.slots());
+        }
+        if (slots) *slots = n;
+        return n > 0;
+    };
+    if (!wait_for([&] { return compatible(nullptr); }, options_.wait_s)) {
+        throw std::runtime_error("optimizer: no matcher worker for matcher '" + options_.matcher_id +
+                                 "' with design space " + e.space.hash() + " appeared within " +
+                                 fmt(options_.wait_s, 0) + " s");
+    }
+
+    // Resume from an earlier run in the same directory.
+    const auto resumed = read_trials_csv(options_.run_dir / "trials.csv", e.space);
+    std::vector<bo::Observation> history;
+    for (auto r : resumed) {
+        history.push_back({experiment::optimizer_values(e, r.params), r.p, r.failed, r.error});
+        r.origin = r.origin == "resumed" ? r.origin : "resumed";
+        summary.evaluations.push_back(r);
+        if (!r.failed && (summary.best < 0 || r.p > summary.evaluations[static_cast<std::size_t>(summary.best)].p)) {
+            summary.best = static_cast<int>(summary.evaluations.size()) - 1;
+        }
+    }
+    bo::Optimizer opt(experiment::search_space(e), experiment::optimizer_options(e), history);
+    if (resumed.empty()) {
+        for (const auto& sp : e.start_points) opt.add_start_point(experiment::optimizer_values(e, sp));
+    } else {
+        log("resumed " + std::to_string(resumed.size()) + " evaluations from " +
+            (options_.run_dir / "trials.csv").string());
+    }
+
+    std::map<std::string, InFlight> in_flight;
+    std::uint64_t sequence = resumed.size();
+    const double start = now_s();
+    const bool tty = options_.progress_bar && isatty(STDOUT_FILENO);
+    std::ofstream hp_file(options_.run_dir / "gp_hyperparameters.csv", std::ios::app);
+    if (fs::file_size(options_.run_dir / "gp_hyperparameters.csv") == 0) {
+        hp_file << "evaluation,signal_variance,noise_variance";
+        for (const auto& name : e.optimize) hp_file << ",length_scale_" << name;
+        hp_file << "\n";
+    }
+
+    for (;;) {
+        const int done = static_cast<int>(summary.evaluations.size());
+        if (stop_requested()) {
+            summary.stop_reason = "stopped by signal";
+            break;
+        }
+        if (done >= e.max_evaluations) {
+            summary.stop_reason = "evaluation budget used";
+            break;
+        }
+        const bool out_of_time = e.max_seconds > 0 && now_s() - start > e.max_seconds;
+        if (out_of_time && in_flight.empty()) {
+            summary.stop_reason = "time budget used";
+            break;
+        }
+        int slots = 0;
+        compatible(&slots);
+        const int target = e.batch > 0 ? e.batch : std::max(1, slots);
+        while (!out_of_time && static_cast<int>(in_flight.size()) < target &&
+               done + static_cast<int>(in_flight.size()) < e.max_evaluations) {
+            const auto proposals = opt.ask(1);
+            if (proposals.empty()) break;
+            const auto& pr = proposals.front();
+            InFlight f;
+            f.proposal = pr.id;
+            f.origin = pr.origin;
+            f.request.request_id(options_.experiment_id + "/" + std::to_string(++sequence));
+            f.request.requester(options_.experiment_id);
+            f.request.dataset_id(dataset_id);
+            f.request.view(e.view);
+            f.request.matcher_id(options_.matcher_id);
+            f.request.matcher_version(version);
+            f.request.space_hash(e.space.hash());
+            f.request.params(dds::to_msg(experiment::full_set(e, pr.values)));
+            f.sent_at = f.last_sent_at = now_s();
+            requests_.write(f.request);
+            in_flight[f.request.request_id()] = f;
+        }
+
+        std::vector<v1::ObservationReply> replies;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            replies.swap(replies_);
+        }
+        for (const auto& r : replies) {
+            const auto it = in_flight.find(r.request_id());
+            if (it == in_flight.end()) continue;  // a duplicate answer to a re-sent request
+            const InFlight f = it->second;
+            in_flight.erase(it);
+            EvaluationRecord rec;
+            rec.number = static_cast<int>(summary.evaluations.size()) + 1;
+            rec.origin = f.origin;
+            rec.wall_s = now_s() - f.sent_at;
+            rec.from_store = r.from_store();
+            if (!r.ok()) {
+                rec.failed = true;
+                rec.error = r.error();
+                rec.params = e.space.round(dds::from_msg(f.request.params()));
+                opt.tell_failed(f.proposal, r.error());
+                log("evaluation " + std::to_string(rec.number) + ": failed: " + r.error());
+            } else {
+                rec.params = dds::from_msg(r.params());
+                const auto report = scoring::score_observation(*ds, pairs, dds::from_msg(r.pairs()), settings);
+                rec.p = report.score.p;
+                rec.v = report.score.v;
+                rec.eps = report.score.eps;
+                rec.m = report.score.m;
+                opt.tell(f.proposal, rec.p);
+            }
+            summary.evaluations.push_back(rec);
+            if (!rec.failed &&
+                (summary.best < 0 || rec.p > summary.evaluations[static_cast<std::size_t>(summary.best)].p)) {
+                summary.best = static_cast<int>(summary.evaluations.size()) - 1;
+            }
+            if (const auto pb = opt.predicted_best()) {
+                summary.predicted_best = experiment::full_set(e, pb->values);
+                summary.predicted_mean = pb->mean;
+                summary.predicted_std = pb->std;
+            }
+            const auto& hp = opt.hyperparameters();
+            if (hp.length_scales.size() == static_cast<Eigen::Index>(e.optimize.size())) {
+                hp_file << rec.number << "," << params::format_double(hp.signal_variance) << ","
+                        << params::format_double(hp.noise_variance);
+                for (Eigen::Index i = 0; i < hp.length_scales.size(); ++i) {
+                    hp_file << "," << params::format_double(hp.length_scales(i));
+                }
+                hp_file << "\n" << std::flush;
+            }
+            if (!rec.failed) {
+                std::string ps;
+                for (const auto& name : e.optimize) {
+                    const auto* spec = e.space.find(name);
+                    ps += " " + name + "=" +
+                          (spec->type == params::ParamType::kInt ? fmt(rec.params.get(name), 0)
+                                                                 : fmt(rec.params.get(name), 2));
+                }
+                const auto& best = summary.evaluations[static_cast<std::size_t>(summary.best)];
+                if (tty) std::cout << "\r\033[K";
+                log("evaluation " + std::to_string(rec.number) + ": p=" + fmt(rec.p) + " m=" +
+                    std::to_string(rec.m) + (rec.from_store ? " (stored)" : "") + ps + " | best so far p=" +
+                    fmt(best.p) + " (evaluation " + std::to_string(best.number) + ")");
+            }
+            write_files(summary);
+            publish(summary, rec.number);
+            v1::OptimizerStatus st;
+            st.experiment_id(options_.experiment_id);
+            st.state("running");
+            st.iteration(static_cast<uint32_t>(rec.number));
+            st.evaluations(static_cast<uint32_t>(summary.evaluations.size()));
+            st.pending(static_cast<uint32_t>(in_flight.size()));
+            uint32_t failed = 0;
+            for (const auto& x : summary.evaluations) failed += x.failed ? 1 : 0;
+            st.failed(failed);
+            std::vector<v1::NamedValue> hpv;
+            auto add = [&](const std::string& n, double v) {
+                v1::NamedValue nv;
+                nv.name(n);
+                nv.value(v);
+                hpv.push_back(nv);
+            };
+            add("signal_variance", hp.signal_variance);
+            add("noise_variance", hp.noise_variance);
+            for (Eigen::Index i = 0; i < hp.length_scales.size() && i < static_cast<Eigen::Index>(e.optimize.size()); ++i) {
+                add("length_scale_" + e.optimize[static_cast<std::size_t>(i)], hp.length_scales(i));
+            }
+            st.gp_hyperparameters(hpv);
+            status_.write(st);
+        }
+        if (tty && !in_flight.empty()) {
+            const int n = static_cast<int>(summary.evaluations.size());
+            const int width = 30;
+            const int filled = e.max_evaluations > 0 ? width * n / e.max_evaluations : 0;
+            std::cout << "\r[" << std::string(static_cast<std::size_t>(filled), '#')
+                      << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << n << "/"
+                      << e.max_evaluations << " evaluations, " << in_flight.size() << " running, "
+                      << fmt(now_s() - start, 0) << " s" << std::flush;
+        }
+        // A request nobody answered (sample_db restarting) is sent again; sample_db answers
+        // a repeated key from its store or joins the running job.
+        for (auto& [id, f] : in_flight) {
+            if (now_s() - f.last_sent_at > options_.resend_s) {
+                requests_.write(f.request);
+                f.last_sent_at = now_s();
+            }
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    if (tty) std::cout << "\r\033[K" << std::flush;
+    v1::OptimizerStatus st;
+    st.experiment_id(options_.experiment_id);
+    st.state(summary.stop_reason == "stopped by signal" ? "stopped" : "finished");
+    st.evaluations(static_cast<uint32_t>(summary.evaluations.size()));
+    st.message(summary.stop_reason);
+    status_.write(st);
+    return summary;
+}
+
+}  // namespace maptune::services

@@ -1,0 +1,92 @@
+#pragma once
+// optimizer: runs an experiment by Bayesian optimization in ask/tell form over DDS. Keeps one
+// request in flight per free worker slot (or the experiment's batch), scores each reply
+// against the experiment's reference, publishes BestSoFar (latched: a late subscriber gets
+// the current best at once) and OptimizerStatus, and writes the run directory: trials.csv,
+// best_params.yaml, best_params.ros2.yaml, gp_hyperparameters.csv. A restart with the same
+// run directory resumes from its trials.csv; re-asked sets come back from the store.
+
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dataset_mirror.hpp"
+#include "dds/participant.hpp"
+#include "experiment/experiment.hpp"
+#include "maptunePubSubTypes.h"
+#include "scoring/scoring.hpp"
+
+namespace maptune::services {
+
+struct OptimizerServiceOptions {
+    experiment::Experiment experiment;
+    std::string dataset_id;               // empty: read from the experiment's dataset dir
+    std::filesystem::path run_dir;
+    std::string experiment_id;            // empty: the experiment's name
+    std::string matcher_id = "lru_matcher";
+    double wait_s = 120;                  // for the dataset and the first compatible worker
+    double resend_s = 15;                 // re-send an unanswered request (sample_db restarts)
+    bool progress_bar = true;             // redraw a bar on a terminal
+    std::function<void(const std::string&)> log;  // one line per event; default: stdout
+};
+
+struct EvaluationRecord {
+    int number = 0;                  // 1-based, in order of completion
+    params::ParameterSet params;     // full rounded set that was evaluated
+    bool failed = false;
+    std::string error;
+    bool from_store = false;
+    double p = 0, v = 0, eps = 0;
+    std::size_t m = 0;
+    double wall_s = 0;
+    std::string origin;              // "start", "initial", "model", "resumed"
+};
+
+struct RunSummary {
+    std::vector<EvaluationRecord> evaluations;
+    int best = -1;                   // index into evaluations
+    std::optional<params::ParameterSet> predicted_best;
+    double predicted_mean = 0, predicted_std = 0;
+    double m_star = 0;
+    std::string stop_reason;
+};
+
+class OptimizerService {
+public:
+    OptimizerService(dds::Participant& participant, DatasetMirror& mirror, OptimizerServiceOptions options);
+    // Runs until the evaluation or time budget is used, or a stop signal. Throws only for
+    // start-up problems (dataset never announced, no worker, unwritable run dir).
+    RunSummary run();
+
+private:
+    struct InFlight {
+        std::uint64_t proposal = 0;
+        msg::v1::ObservationRequest request;
+        double sent_at = 0;       // first send: the evaluation's wall time starts here
+        double last_sent_at = 0;  // for re-sending
+        std::string origin;
+    };
+    void log(const std::string& line) const;
+    void write_files(const RunSummary& summary) const;
+    void publish(const RunSummary& summary, int iteration);
+
+    dds::Participant& participant_;
+    DatasetMirror& mirror_;
+    OptimizerServiceOptions options_;
+    dds::Writer<msg::v1::ObservationRequest> requests_;
+    dds::Writer<msg::v1::BestSoFar> best_;
+    dds::Writer<msg::v1::OptimizerStatus> status_;
+    std::mutex mutex_;
+    std::vector<msg::v1::ObservationReply> replies_;
+    std::map<std::string, msg::v1::WorkerStatus> workers_;
+    std::string last_hyperparameters_;
+};
+
+// trials.csv of a run directory: header and one line per evaluation.
+std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space);
+std::vector<EvaluationRecord> read_trials_csv(const std::filesystem::path& file,
+                                              const params::ParameterSpace& space);
+
+}  // namespace maptune::services

@@ -1,0 +1,42 @@
+#include "runtime.hpp"
+
+#include <unistd.h>
+
+#include <csignal>
+#include <mutex>
+
+namespace maptune::services {
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_stop_signal(int) { g_stop.store(true); }
+
+}  // namespace
+
+void install_stop_signals() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        struct sigaction sa {};
+        sa.sa_handler = on_stop_signal;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, nullptr);
+        sigaction(SIGTERM, &sa, nullptr);
+    });
+}
+
+bool stop_requested() { return g_stop.load(); }
+void request_stop() { g_stop.store(true); }
+
+double now_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string make_id(const std::string& role) {
+    static std::atomic<int> counter{0};
+    char host[64] = {};
+    gethostname(host, sizeof(host) - 1);
+    return role + "-" + host + "-" + std::to_string(getpid()) + "-" + std::to_string(++counter);
+}
+
+}  // namespace maptune::services

@@ -1,0 +1,35 @@
+#pragma once
+// Process plumbing shared by the services: stop on SIGINT/SIGTERM, a monotonic clock, and a
+// small logger line format.
+
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <thread>
+
+namespace maptune::services {
+
+// Installs SIGINT/SIGTERM handlers that set the global stop flag (once per process).
+void install_stop_signals();
+// True once a stop signal arrived or request_stop() was called.
+bool stop_requested();
+void request_stop();
+
+// Seconds on a monotonic clock (for leases and timeouts).
+double now_s();
+
+// A unique id for this process/thread role, e.g. "worker-host-1234-1".
+std::string make_id(const std::string& role);
+
+// Sleeps in small steps until `pred` is true, the stop flag is set, or `timeout_s` passes.
+template <class Pred>
+bool wait_for(Pred pred, double timeout_s) {
+    const double end = now_s() + timeout_s;
+    while (!pred()) {
+        if (stop_requested() || now_s() > end) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return true;
+}
+
+}  // namespace maptune::services

@@ -1,0 +1,231 @@
+#include "sample_db.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dds/convert.hpp"
+#include "runtime.hpp"
+#include "scoring/scoring.hpp"
+
+namespace maptune::services {
+
+namespace v1 = msg::v1;
+
+SampleDb::SampleDb(dds::Participant& participant, DatasetMirror& mirror, SampleDbOptions options)
+    : mirror_(mirror),
+      options_(std::move(options)),
+      store_(options_.store_path),
+      scheduler_(options_.scheduler) {
+    replies_ = participant.writer<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply,
+                                                                 dds::TopicQos::kReliable);
+    tasks_ = participant.writer<v1::EvaluationTaskPubSubType>(dds::topics::kEvaluationTask,
+                                                             dds::TopicQos::kReliable);
+    auto push = [this](Event e) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        events_.push_back(std::move(e));
+        cv_.notify_one();
+    };
+    participant.reader<v1::ObservationRequestPubSubType>(
+        dds::topics::kObservationRequest, dds::TopicQos::kReliable,
+        [push](const v1::ObservationRequest& r) { push({Event::kRequest, r, {}, {}}); });
+    participant.reader<v1::TaskResultPubSubType>(
+        dds::topics::kTaskResult, dds::TopicQos::kReliable,
+        [push](const v1::TaskResult& r) { push({Event::kResult, {}, r, {}}); });
+    participant.reader<v1::WorkerStatusPubSubType>(
+        dds::topics::kWorkerStatus, dds::TopicQos::kLatched,
+        [push](const v1::WorkerStatus& s) { push({Event::kStatus, {}, {}, s}); });
+    thread_ = std::thread([this] { loop(); });
+}
+
+SampleDb::~SampleDb() {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        stop_ = true;
+        cv_.notify_all();
+    }
+    thread_.join();
+}
+
+SampleDbStats SampleDb::stats() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return stats_;
+}
+
+void SampleDb::loop() {
+    for (;;) {
+        std::deque<Event> batch;
+        {
+            std::unique_lock<std::mutex> lock(mutex_);
+            // Wake at least every 50 ms to notice silent workers.
+            cv_.wait_for(lock, std::chrono::milliseconds(50), [this] { return stop_ || !events_.empty(); });
+            if (stop_) return;
+            batch.swap(events_);
+        }
+        const double now = now_s();
+        for (auto& e : batch) {
+            try {
+                switch (e.kind) {
+                    case Event::kRequest: handle_request(e.request); break;
+                    case Event::kResult: handle_result(e.result); break;
+                    case Event::kStatus:
+                        scheduler_.heartbeat({e.status.worker_id(), e.status.matcher_id(),
+                                              e.status.matcher_version(), e.status.space_hash(),
+                                              static_cast<int>(e.status.slots())},
+                                             now);
+                        break;
+                }
+            } catch (const std::exception& ex) {
+                // Bad input or a store I/O error never stops the service.
+                if (e.kind == Event::kRequest) reply_error(e.request, std::string("internal error: ") + ex.what());
+            }
+        }
+        auto parked = std::move(parked_);
+        parked_.clear();
+        for (auto& [since, request] : parked) {
+            try {
+                handle_request(request, since);
+            } catch (const std::exception& ex) {
+                reply_error(request, std::string("internal error: ") + ex.what());
+            }
+        }
+        for (auto& job : scheduler_.take_completed()) finish(std::move(job));
+        for (const auto& a : scheduler_.schedule(now_s())) {
+            v1::EvaluationTask t;
+            t.task_id(a.task_id);
+            t.worker_id(a.worker_id);
+            t.dataset_id(a.job->dataset_id);
+            t.view(a.job->view);
+            t.matcher_id(a.job->matcher_id);
+            t.space_hash(a.job->space_hash);
+            params::ParameterSet p;
+            for (const auto& [name, value] : a.job->params) p.set(name, value);
+            t.params(dds::to_msg(p));
+            t.pair_ids(a.pair_ids);
+            t.lease_ms(static_cast<uint32_t>(options_.scheduler.lease_s * 1000));
+            tasks_.write(t);
+            std::lock_guard<std::mutex> lock(mutex_);
+            ++stats_.tasks_sent;
+        }
+    }
+}
+
+std::shared_ptr<const dataset::Dataset> SampleDb::dataset(const std::string& id, std::string* error) {
+    if (auto it = datasets_.find(id); it != datasets_.end()) return it->second;
+    auto ds = mirror_.open(id, options_.dataset_timeout_s, error);
+    if (!ds) return nullptr;
+    return datasets_[id] = std::make_shared<const dataset::Dataset>(std::move(*ds));
+}
+
+void SampleDb::reply_error(const v1::ObservationRequest& r, const std::string& error) {
+    v1::ObservationReply rep;
+    rep.request_id(r.request_id());
+    rep.ok(false);
+    rep.error(error);
+    replies_.write(rep);
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.refused;
+}
+
+void SampleDb::reply(const std::string& request_id, const store::Observation& o, bool from_store) {
+    v1::ObservationReply rep;
+    rep.request_id(request_id);
+    rep.ok(true);
+    rep.from_store(from_store);
+    rep.params_key(o.key.params_key);
+    rep.params(dds::to_msg(o.params));
+    rep.pairs(dds::to_msg(o.pairs));
+    rep.wall_seconds(o.wall_seconds);
+    replies_.write(rep);
+}
+
+void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_since) {
+    if (parked_since < 0) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        ++stats_.requests;
+    }
+    if (r.request_id().empty()) return reply_error(r, "request_id is empty");
+    const params::ParameterSpace* space = nullptr;
+    for (const auto& s : options_.spaces) {
+        if (s.hash() == r.space_hash()) space = &s;
+    }
+    if (space == nullptr) {
+        std::string known;
+        for (const auto& s : options_.spaces) known += (known.empty() ? "" : ", ") + s.name() + " " + s.hash();
+        return reply_error(r, "design space " + r.space_hash() + " differs from the sample_db's (" + known + ")");
+    }
+    params::ParameterSet partial;
+    for (const auto& nv : r.params()) {
+        if (!std::isfinite(nv.value())) return reply_error(r, nv.name() + ": value is not a finite number");
+        if (partial.has(nv.name())) return reply_error(r, nv.name() + ": given twice");
+        partial.set(nv.name(), nv.value());
+    }
+    params::ParameterSet full;
+    try {
+        full = space->round(space->complete(partial));
+    } catch (const std::exception& e) {
+        return reply_error(r, e.what());
+    }
+    if (r.view() != "complete" && r.view() != "subsequent") {
+        return reply_error(r, "view '" + r.view() + "' is not complete or subsequent");
+    }
+    if (r.matcher_id().empty()) return reply_error(r, "matcher_id is empty");
+    // An unannounced dataset may still come (services start in any order): park the request
+    // instead of blocking the loop, and refuse it once the wait is over.
+    const auto known = mirror_.known();
+    if (std::find(known.begin(), known.end(), r.dataset_id()) == known.end()) {
+        const double since = parked_since < 0 ? now_s() : parked_since;
+        if (now_s() - since < options_.dataset_timeout_s) {
+            parked_.emplace_back(since, r);
+            return;
+        }
+        return reply_error(r, "unknown dataset '" + r.dataset_id() + "': no dataset_server announced it");
+    }
+    std::string error;
+    const auto ds = dataset(r.dataset_id(), &error);
+    if (!ds) return reply_error(r, "unknown dataset: " + error);
+    const store::ObservationKey key{r.dataset_id(), r.view(), r.matcher_id(), r.matcher_version(),
+                                    space->canonical_key(full)};
+    if (auto found = store_.get(key)) {
+        reply(r.request_id(), *found, true);
+        std::lock_guard<std::mutex> lock(mutex_);
+        ++stats_.from_store;
+        return;
+    }
+    scheduler::JobSpec spec;
+    spec.dataset_id = r.dataset_id();
+    spec.view = r.view();
+    spec.matcher_id = r.matcher_id();
+    spec.matcher_version = r.matcher_version();
+    spec.space_hash = r.space_hash();
+    for (const auto& [name, value] : full) spec.params.emplace_back(name, value);
+    for (const auto& p : ds->pairs(dataset::parse_view(r.view()), dataset::Reference::gt)) {
+        spec.pair_ids.push_back(scoring::pair_id(p));
+    }
+    const std::string job_key = key.dataset_id + "\n" + key.view + "\n" + key.matcher_id + "\n" +
+                                key.matcher_version + "\n" + key.params_key;
+    job_keys_[job_key] = key;
+    scheduler_.submit(job_key, std::move(spec), r.request_id(), now_s());
+}
+
+void SampleDb::handle_result(const v1::TaskResult& r) {
+    std::optional<scheduler::CompletedJob> done =
+        r.ok() ? scheduler_.complete(r.task_id(), r.worker_id(), dds::from_msg(r.pairs()), now_s())
+               : scheduler_.fail(r.task_id(), r.worker_id(), r.error(), now_s());
+    if (done) finish(std::move(*done));
+}
+
+void SampleDb::finish(scheduler::CompletedJob job) {
+    store::Observation o;
+    o.key = job_keys_.at(job.job_key);
+    job_keys_.erase(job.job_key);
+    for (const auto& [name, value] : job.spec.params) o.params.set(name, value);
+    o.pairs = std::move(job.pairs);
+    o.wall_seconds = job.finished_at - job.started_at;
+    store_.put(o);  // durable before anyone hears of it
+    const auto stored = store_.get(o.key);
+    for (const auto& requester : job.requesters) reply(requester, stored ? *stored : o, false);
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.evaluated;
+}
+
+}  // namespace maptune::services

@@ -1,0 +1,80 @@
+#pragma once
+// sample_db: the only writer of the observation store. A request is answered from the store
+// when its rounded key exists; otherwise its pairs are split into shards, leased to
+// compatible workers, re-assigned when a worker stops heart-beating, stored once all are in,
+// and answered. Duplicate concurrent requests run once. Bad requests get an error reply.
+
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dataset_mirror.hpp"
+#include "dds/participant.hpp"
+#include "maptunePubSubTypes.h"
+#include "params/parameter_space.hpp"
+#include "scheduler/scheduler.hpp"
+#include "store/observation_store.hpp"
+
+namespace maptune::services {
+
+struct SampleDbOptions {
+    std::string store_path;                    // SQLite file; created when absent
+    std::vector<params::ParameterSpace> spaces;  // design spaces it accepts (by hash)
+    scheduler::SchedulerOptions scheduler;
+    double dataset_timeout_s = 30;             // wait for an unknown dataset's announcement
+};
+
+struct SampleDbStats {
+    std::size_t requests = 0, from_store = 0, evaluated = 0, refused = 0, tasks_sent = 0;
+};
+
+class SampleDb {
+public:
+    // Opens the store (throws store::StoreError on a foreign or corrupt file).
+    SampleDb(dds::Participant& participant, DatasetMirror& mirror, SampleDbOptions options);
+    ~SampleDb();
+    SampleDb(const SampleDb&) = delete;
+    SampleDb& operator=(const SampleDb&) = delete;
+
+    SampleDbStats stats() const;
+
+private:
+    struct Event {
+        enum Kind { kRequest, kResult, kStatus } kind;
+        msg::v1::ObservationRequest request;
+        msg::v1::TaskResult result;
+        msg::v1::WorkerStatus status;
+    };
+    void loop();
+    // `parked_since` >= 0: a re-try of a request parked for its dataset since then.
+    void handle_request(const msg::v1::ObservationRequest& r, double parked_since = -1);
+    void handle_result(const msg::v1::TaskResult& r);
+    void finish(scheduler::CompletedJob job);
+    void reply_error(const msg::v1::ObservationRequest& r, const std::string& error);
+    void reply(const std::string& request_id, const store::Observation& o, bool from_store);
+    std::shared_ptr<const dataset::Dataset> dataset(const std::string& id, std::string* error);
+
+    DatasetMirror& mirror_;
+    SampleDbOptions options_;
+    store::ObservationStore store_;
+    scheduler::Scheduler scheduler_;
+    dds::Writer<msg::v1::ObservationReply> replies_;
+    dds::Writer<msg::v1::EvaluationTask> tasks_;
+    std::map<std::string, std::shared_ptr<const dataset::Dataset>> datasets_;
+    std::map<std::string, store::ObservationKey> job_keys_;  // scheduler key -> store key
+    // Requests waiting for their dataset to be announced, with the time they arrived.
+    std::vector<std::pair<double, msg::v1::ObservationRequest>> parked_;
+    mutable std::mutex mutex_;
+    std::condition_variable cv_;
+    std::deque<Event> events_;
+    bool stop_ = false;
+    SampleDbStats stats_;
+    std::thread thread_;
+};
+
+}  // namespace maptune::services

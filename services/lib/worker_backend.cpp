@@ -1,0 +1,184 @@
+#include "worker_backend.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "dataset/io.hpp"
+
+namespace maptune::services {
+
+bool split_pair_id(const std::string& pair_id, std::string* a, std::string* b) {
+    const auto bar = pair_id.find('|');
+    if (bar == std::string::npos || bar == 0 || bar + 1 >= pair_id.size()) return false;
+    *a = pair_id.substr(0, bar);
+    *b = pair_id.substr(bar + 1);
+    return true;
+}
+
+std::shared_ptr<const dataset::Dataset> DatasetCache::get(const std::string& id, std::string* error) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = open_.find(id); it != open_.end()) return it->second;
+    auto ds = mirror_.open(id, 30.0, error);
+    if (!ds) return nullptr;
+    auto shared = std::make_shared<const dataset::Dataset>(std::move(*ds));
+    open_[id] = shared;
+    return shared;
+}
+
+// ---- LruBackend ----
+
+LruBackend::LruBackend(DatasetMirror& mirror, params::ParameterSpace space,
+                       matcher::MatcherSettings settings, matcher::FeatureCacheOptions cache)
+    : datasets_(mirror),
+      space_(std::move(space)),
+      matcher_(settings, cache),
+      version_(evaluation::matcher_version(settings)) {}
+
+const dataset::Submap* LruBackend::submap(const dataset::Dataset& ds, const std::string& id,
+                                          std::string* error) {
+    const std::string key = ds.manifest().id + "/" + id;
+    if (auto it = submaps_.find(key); it != submaps_.end()) return it->second.get();
+    if (!datasets_.mirror().ensure_submaps(ds, {id}, 120.0, error)) return nullptr;
+    try {
+        auto s = std::make_unique<dataset::Submap>(ds.load_submap(id));
+        return (submaps_[key] = std::move(s)).get();
+    } catch (const std::exception& e) {
+        *error = e.what();
+        return nullptr;
+    }
+}
+
+TaskOutcome LruBackend::run(const TaskSpec& task) {
+    TaskOutcome out;
+    std::string error;
+    const auto ds = datasets_.get(task.dataset_id, &error);
+    if (!ds) {
+        out.error = error;
+        return out;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<const dataset::Submap*> submaps;
+    std::map<std::string, int> index;
+    std::vector<std::pair<int, int>> pairs;
+    auto index_of = [&](const std::string& id) -> int {
+        if (auto it = index.find(id); it != index.end()) return it->second;
+        const dataset::Submap* s = submap(*ds, id, &error);
+        if (s == nullptr) return -1;
+        submaps.push_back(s);
+        return index[id] = static_cast<int>(submaps.size()) - 1;
+    };
+    for (const auto& pid : task.pair_ids) {
+        std::string a, b;
+        if (!split_pair_id(pid, &a, &b)) {
+            out.error = "malformed pair id '" + pid + "'";
+            return out;
+        }
+        const int ia = index_of(a), ib = index_of(b);
+        if (ia < 0 || ib < 0) {
+            out.error = error;
+            return out;
+        }
+        pairs.emplace_back(ia, ib);
+    }
+    const matcher::MatcherParams mp = matcher::from_named_values(task.params.values());
+    const auto results = matcher_.match_pairs(submaps, pairs, mp);
+    for (std::size_t i = 0; i < results.size(); ++i) {
+        store::PairRecord r;
+        r.pair_id = task.pair_ids[i];
+        r.matched = results[i].matched;
+        r.T_a_b_est = results[i].T_a_b;
+        r.duration_s = results[i].duration_s;
+        r.status = evaluation::to_store_status(results[i].status);
+        r.reason = results[i].reason;
+        out.pairs.push_back(std::move(r));
+    }
+    out.ok = true;
+    return out;
+}
+
+// ---- AnalyticBackend ----
+
+namespace {
+
+// Uniform in [0, 1) from a string, stable across platforms.
+double unit_hash(const std::string& s) {
+    return static_cast<double>(dataset::fnv1a(s) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+}  // namespace
+
+AnalyticBackend::AnalyticBackend(DatasetMirror& mirror, params::ParameterSpace space,
+                                 AnalyticOptions options)
+    : datasets_(mirror), space_(std::move(space)), options_(std::move(options)), rng_state_(options_.seed) {
+    if (options_.optimum.empty()) {
+        for (std::size_t i = 0; i < space_.size(); ++i) options_.optimum.push_back(0.3 + 0.4 * unit_hash("opt" + std::to_string(i)));
+    }
+}
+
+double AnalyticBackend::quality(const params::ParameterSet& params) const {
+    double d2 = 0;
+    for (std::size_t i = 0; i < space_.size(); ++i) {
+        const auto& s = space_.specs()[i];
+        const double u = s.high > s.low ? (params.get(s.name) - s.low) / (s.high - s.low) : 0.5;
+        const double diff = u - options_.optimum[i];
+        d2 += diff * diff;
+    }
+    // Smooth single bump: 1 at the optimum, ~0.37 at unit-cube distance 0.5.
+    return std::exp(-d2 / (2 * 0.25 * 0.25));
+}
+
+TaskOutcome AnalyticBackend::run(const TaskSpec& task) {
+    TaskOutcome out;
+    std::string error;
+    const auto ds = datasets_.get(task.dataset_id, &error);
+    if (!ds) {
+        out.error = error;
+        return out;
+    }
+    if (options_.failure_rate > 0) {
+        std::lock_guard<std::mutex> lock(rng_mutex_);
+        rng_state_ = rng_state_ * 6364136223846793005ULL + 1442695040888963407ULL;
+        if (static_cast<double>(rng_state_ >> 11) * (1.0 / 9007199254740992.0) < options_.failure_rate) {
+            out.error = "simulated failure";
+            return out;
+        }
+    }
+    std::map<std::string, Eigen::Isometry3d> reference;
+    for (const auto& p : ds->pairs(dataset::View::complete, dataset::Reference::gt)) {
+        reference[scoring::pair_id(p)] = p.T_a_b;
+    }
+    const double q = quality(task.params);
+    const std::string key = space_.canonical_key(task.params);
+    for (const auto& pid : task.pair_ids) {
+        const auto it = reference.find(pid);
+        if (it == reference.end()) {
+            out.error = "pair '" + pid + "' is not in dataset " + task.dataset_id;
+            out.pairs.clear();
+            return out;
+        }
+        if (options_.delay_per_pair_s > 0) {
+            std::this_thread::sleep_for(std::chrono::duration<double>(options_.delay_per_pair_s));
+        }
+        store::PairRecord r;
+        r.pair_id = pid;
+        r.status = store::PairStatus::kOk;
+        r.matched = unit_hash(key + "#" + pid) < 0.2 + 0.75 * q;
+        if (r.matched) {
+            // Error 0.02 m at the optimum, growing to ~0.8 m far from it, in a hashed direction.
+            const double e = 0.02 + 0.8 * (1 - q);
+            const double az = 2 * M_PI * unit_hash("az" + pid), el = M_PI * (unit_hash("el" + pid) - 0.5);
+            Eigen::Isometry3d T = it->second;
+            T.translation() += e * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+            r.T_a_b_est = T.matrix();
+        } else {
+            r.status = store::PairStatus::kNoMatch;
+        }
+        r.duration_s = options_.delay_per_pair_s;
+        out.pairs.push_back(std::move(r));
+    }
+    out.ok = true;
+    return out;
+}
+
+}  // namespace maptune::services

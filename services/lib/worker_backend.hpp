@@ -1,0 +1,109 @@
+#pragma once
+// What a matcher worker runs. A robot's own matcher plugs in by implementing this (in C++),
+// or by speaking the DDS contract of docs/plugin-matcher.md in any language.
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "dataset_mirror.hpp"
+#include "evaluation/evaluation.hpp"
+#include "params/parameter_space.hpp"
+#include "store/observation_store.hpp"
+
+namespace maptune::services {
+
+struct TaskSpec {
+    std::string task_id;
+    std::string dataset_id;
+    std::string view;
+    params::ParameterSet params;        // full rounded set
+    std::vector<std::string> pair_ids;  // "idA|idB"
+};
+
+struct TaskOutcome {
+    bool ok = false;
+    std::string error;                     // why the whole task failed (ok = false)
+    std::vector<store::PairRecord> pairs;  // one per pair id, same order (ok = true)
+};
+
+class WorkerBackend {
+public:
+    virtual ~WorkerBackend() = default;
+    virtual std::string matcher_id() const = 0;
+    virtual std::string matcher_version() const = 0;
+    virtual const params::ParameterSpace& space() const = 0;
+    // Thread-safe; never throws: failures are outcomes.
+    virtual TaskOutcome run(const TaskSpec& task) = 0;
+};
+
+// Splits "idA|idB"; false when malformed.
+bool split_pair_id(const std::string& pair_id, std::string* a, std::string* b);
+
+// Opened datasets by id, shared by a backend's tasks.
+class DatasetCache {
+public:
+    explicit DatasetCache(DatasetMirror& mirror) : mirror_(mirror) {}
+    std::shared_ptr<const dataset::Dataset> get(const std::string& id, std::string* error);
+    DatasetMirror& mirror() { return mirror_; }
+
+private:
+    DatasetMirror& mirror_;
+    std::mutex mutex_;
+    std::map<std::string, std::shared_ptr<const dataset::Dataset>> open_;
+};
+
+// The reference PCL pipeline (libs/matcher) on submaps fetched through the mirror.
+class LruBackend : public WorkerBackend {
+public:
+    LruBackend(DatasetMirror& mirror, params::ParameterSpace space,
+               matcher::MatcherSettings settings = {}, matcher::FeatureCacheOptions cache = {});
+    std::string matcher_id() const override { return evaluation::kMatcherId; }
+    std::string matcher_version() const override { return version_; }
+    const params::ParameterSpace& space() const override { return space_; }
+    TaskOutcome run(const TaskSpec& task) override;
+
+private:
+    const dataset::Submap* submap(const dataset::Dataset& ds, const std::string& id, std::string* error);
+
+    DatasetCache datasets_;
+    params::ParameterSpace space_;
+    matcher::Matcher matcher_;
+    std::string version_;
+    std::mutex mutex_;  // one task at a time: the matcher parallelizes inside
+    std::map<std::string, std::unique_ptr<dataset::Submap>> submaps_;
+};
+
+// A test objective with the matcher's contract and no PCL: estimates are the ground truth
+// moved by an error that depends smoothly on the parameters (best near `optimum`, in the
+// unit cube of the space), matches are drawn with a parameter-dependent probability.
+// Deterministic per (parameters, pair) except the simulated failures.
+struct AnalyticOptions {
+    double delay_per_pair_s = 0;   // simulated work
+    double failure_rate = 0;       // probability that a task fails as a whole
+    std::vector<double> optimum;   // unit-cube location of the best parameters; empty: 0.3…
+    std::uint64_t seed = 1;
+};
+
+class AnalyticBackend : public WorkerBackend {
+public:
+    AnalyticBackend(DatasetMirror& mirror, params::ParameterSpace space, AnalyticOptions options = {});
+    std::string matcher_id() const override { return "analytic"; }
+    std::string matcher_version() const override { return "1"; }
+    const params::ParameterSpace& space() const override { return space_; }
+    TaskOutcome run(const TaskSpec& task) override;
+
+    // Quality in [0, 1] of a full parameter set: 1 at the optimum.
+    double quality(const params::ParameterSet& params) const;
+
+private:
+    DatasetCache datasets_;
+    params::ParameterSpace space_;
+    AnalyticOptions options_;
+    std::mutex rng_mutex_;
+    std::uint64_t rng_state_;
+};
+
+}  // namespace maptune::services

@@ -1,0 +1,42 @@
+// maptune_optimizer: runs an experiment against the sample_db and workers on a DDS domain.
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "dds_options.hpp"
+#include "optimizer_service.hpp"
+#include "runtime.hpp"
+
+int main(int argc, char** argv) {
+    using namespace maptune::services;
+    CLI::App app{"maptune optimizer: Bayesian optimization of matcher parameters over DDS"};
+    maptune::dds::ParticipantOptions dds{0, "", "maptune_loopback", "optimizer"};
+    std::string experiment_file, run_dir, cache = "/tmp/maptune-cache";
+    OptimizerServiceOptions options;
+    app.add_option("--experiment", experiment_file, "experiment YAML")->required()->check(CLI::ExistingFile);
+    app.add_option("--run-dir", run_dir, "run directory: trials.csv, best_params*.yaml; an existing one resumes")->required();
+    app.add_option("--dataset-id", options.dataset_id, "dataset id as announced (default: read the experiment's dataset dir)");
+    app.add_option("--matcher", options.matcher_id, "matcher id of the workers (default: lru_matcher)");
+    app.add_option("--wait", options.wait_s, "seconds to wait for dataset and workers (default: 120)");
+    app.add_option("--cache", cache, "directory for fetched dataset metadata (default: /tmp/maptune-cache)");
+    add_dds_options(app, dds);
+    CLI11_PARSE(app, argc, argv);
+    install_stop_signals();
+    try {
+        options.experiment = maptune::experiment::load_experiment(experiment_file);
+        options.run_dir = run_dir;
+        maptune::dds::Participant participant(dds);
+        DatasetMirror mirror(participant, cache, make_id("optimizer"));
+        OptimizerService service(participant, mirror, options);
+        const RunSummary s = service.run();
+        std::cout << s.evaluations.size() << " evaluations (" << s.stop_reason << ")";
+        if (s.best >= 0) std::cout << ", best p = " << s.evaluations[static_cast<std::size_t>(s.best)].p;
+        std::cout << std::endl;
+        return s.best >= 0 ? 0 : 1;
+    } catch (const maptune::params::ConfigError& e) {
+        std::cerr << "optimizer: " << e.what() << "\n";
+        return 2;
+    } catch (const std::exception& e) {
+        std::cerr << "optimizer: " << e.what() << "\n";
+        return 1;
+    }
+}

@@ -1,0 +1,291 @@
+// The service set as separate processes on loopback, each test on its own random domain.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <random>
+#include <set>
+
+#include "dataset/dataset.hpp"
+#include "dataset/simulator.hpp"
+#include "dds/convert.hpp"
+#include "dds/participant.hpp"
+#include "maptunePubSubTypes.h"
+#include "optimizer_service.hpp"
+#include "process.hpp"
+#include "runtime.hpp"
+#include "store/observation_store.hpp"
+#include "worker_backend.hpp"
+
+namespace maptune {
+namespace {
+
+namespace fs = std::filesystem;
+namespace v1 = msg::v1;
+using testing::Process;
+
+const std::string kSource = MAPTUNE_SOURCE_DIR;
+
+std::set<std::string> shm_files() {
+    std::set<std::string> out;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator("/dev/shm", ec)) {
+        const auto n = e.path().filename().string();
+        if (n.find("fastrtps") != std::string::npos) out.insert(n);
+    }
+    return out;
+}
+
+template <class Pred>
+bool poll(Pred pred, double timeout_s) {
+    const double end = services::now_s() + timeout_s;
+    while (!pred()) {
+        if (services::now_s() > end) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return true;
+}
+
+class ServicesTest : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        char tmpl[] = "/tmp/maptune_services_data_XXXXXX";
+        ASSERT_NE(mkdtemp(tmpl), nullptr);
+        data_root_ = tmpl;
+        auto config = dataset::sim_preset("lab-tiny");
+        config.runs = 1;
+        config.submaps = 5;
+        dataset::generate_dataset(config, data_root_ / "lab");
+    }
+    static void TearDownTestSuite() { fs::remove_all(data_root_); }
+
+    void SetUp() override {
+        char tmpl[] = "/tmp/maptune_services_test_XXXXXX";
+        ASSERT_NE(mkdtemp(tmpl), nullptr);
+        dir_ = tmpl;
+        std::random_device rd;
+        domain_ = std::uniform_int_distribution<int>(1, 200)(rd);
+        shm_before_ = shm_files();
+    }
+    void TearDown() override {
+        processes_.clear();  // SIGTERM, then SIGKILL
+        // A SIGKILLed participant leaves its shared-memory files behind: remove ours.
+        for (const auto& f : shm_files()) {
+            if (!shm_before_.count(f)) fs::remove(fs::path("/dev/shm") / f);
+        }
+        if (HasFailure()) {
+            for (const auto& e : fs::directory_iterator(dir_)) {
+                if (e.path().extension() == ".log") {
+                    std::ifstream in(e.path());
+                    std::stringstream s;
+                    s << in.rdbuf();
+                    std::cerr << "---- " << e.path().filename() << "\n" << s.str().substr(0, 4000) << "\n";
+                }
+            }
+        }
+        fs::remove_all(dir_);
+    }
+
+    Process& start(const std::string& name, std::vector<std::string> argv) {
+        argv.push_back("--domain");
+        argv.push_back(std::to_string(domain_));
+        processes_.push_back(std::make_unique<Process>(argv, (dir_ / (name + ".log")).string(), kSource));
+        return *processes_.back();
+    }
+    Process& dataset_server() { return start("dataset_server", {MAPTUNE_BIN_DATASET_SERVER, "--dataset", lab().string()}); }
+    Process& sample_db(const std::string& lease = "2") {
+        return start("sample_db", {MAPTUNE_BIN_SAMPLE_DB, "--db", db(), "--lease", lease, "--shard-size", "2",
+                                   "--cache", (dir_ / "cache_db").string()});
+    }
+    Process& worker(const std::string& id, const std::string& delay = "0") {
+        return start(id, {MAPTUNE_BIN_WORKER, "--analytic", "--id", id, "--delay", delay, "--cache",
+                          (dir_ / ("cache_" + id)).string()});
+    }
+    std::string experiment(int evaluations, const std::string& view = "complete") {
+        const fs::path p = dir_ / "experiment.yaml";
+        std::ofstream(p) << "name: itest\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
+                         << "dataset: " << lab().string() << "\nview: " << view << "\nreference: gt\n"
+                         << "budget: {evaluations: " << evaluations << "}\noptimizer: {seed: 3}\n"
+                         << "start_points: [" << kSource << "/configs/params/x_baseline.yaml]\n";
+        return p.string();
+    }
+    Process& optimizer(const std::string& exp) {
+        // --dataset-id: the optimizer gets the dataset from the server, like on another machine.
+        return start("optimizer", {MAPTUNE_BIN_OPTIMIZER, "--experiment", exp, "--run-dir", run_dir().string(),
+                                   "--matcher", "analytic", "--dataset-id", dataset_id(), "--wait", "60",
+                                   "--cache", (dir_ / "cache_opt").string()});
+    }
+    static fs::path lab() { return data_root_ / "lab"; }
+    static std::string dataset_id() { return dataset::Dataset::open(lab()).manifest().id; }
+    std::string db() const { return (dir_ / "observations.db").string(); }
+    fs::path run_dir() const { return dir_ / "run"; }
+    std::size_t trials() const {
+        std::ifstream in(run_dir() / "trials.csv");
+        std::size_t n = 0;
+        for (std::string line; std::getline(in, line);) ++n;
+        return n > 0 ? n - 1 : 0;
+    }
+    // Every stored observation must equal what the analytic matcher computes directly.
+    void expect_store_matches_direct_computation() {
+        store::ObservationStore store(db());
+        const auto all = store.list();
+        ASSERT_FALSE(all.empty());
+        dds::Participant p({domain_ == 200 ? 199 : domain_ + 1, "", "maptune_loopback", "check"});
+        services::DatasetMirror mirror(p, dir_ / "cache_check", "check");
+        mirror.add_local(lab());
+        const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+        services::AnalyticBackend direct(mirror, space);
+        for (const auto& o : all) {
+            std::vector<std::string> ids;
+            for (const auto& r : o.pairs) ids.push_back(r.pair_id);
+            const auto expected = direct.run({"check", o.key.dataset_id, o.key.view, o.params, ids});
+            ASSERT_TRUE(expected.ok) << expected.error;
+            for (std::size_t i = 0; i < ids.size(); ++i) {
+                EXPECT_EQ(o.pairs[i].matched, expected.pairs[i].matched) << o.key.params_key << " " << ids[i];
+                EXPECT_TRUE(o.pairs[i].T_a_b_est.isApprox(expected.pairs[i].T_a_b_est, 1e-12));
+            }
+        }
+    }
+
+    static fs::path data_root_;
+    fs::path dir_;
+    int domain_ = 0;
+    std::set<std::string> shm_before_;
+    std::vector<std::unique_ptr<Process>> processes_;
+};
+
+fs::path ServicesTest::data_root_;
+
+TEST_F(ServicesTest, TuningRunWithThreeWorkers) {
+    dataset_server();
+    sample_db();
+    worker("w1");
+    worker("w2");
+    worker("w3");
+    Process& opt = optimizer(experiment(10));
+    ASSERT_EQ(opt.wait(240), 0) << opt.output();
+    EXPECT_EQ(trials(), 10u);
+    EXPECT_TRUE(fs::exists(run_dir() / "best_params.yaml"));
+    EXPECT_TRUE(fs::exists(run_dir() / "best_params.ros2.yaml"));
+    EXPECT_TRUE(fs::exists(run_dir() / "gp_hyperparameters.csv"));
+    EXPECT_NE(opt.output().find("best so far p="), std::string::npos);
+    expect_store_matches_direct_computation();
+    // Two proposals may round to the same key: the store then holds fewer observations.
+    store::ObservationStore store(db());
+    EXPECT_GE(store.count(), 8u);
+    EXPECT_LE(store.count(), 10u);
+}
+
+TEST_F(ServicesTest, LateWatchSubscriberGetsTheCurrentBestAtOnce) {
+    dataset_server();
+    sample_db();
+    worker("w1", "0.05");
+    Process& opt = optimizer(experiment(40));
+    // Wait until a few evaluations are done, then start watching.
+    ASSERT_TRUE(poll([&] { return trials() >= 3; }, 120)) << opt.output();
+    Process& watch = start("watch", {MAPTUNE_BIN_CLI, "watch", "--once", "--timeout", "20", "--experiment", "itest"});
+    ASSERT_EQ(watch.wait(30), 0) << watch.output();
+    EXPECT_NE(watch.output().find("itest: "), std::string::npos) << watch.output();
+    EXPECT_NE(watch.output().find("best p="), std::string::npos) << watch.output();
+}
+
+TEST_F(ServicesTest, KilledWorkerShardIsReassignedAndTheObservationIsUnchanged) {
+    dataset_server();
+    sample_db("1");
+    Process& victim = worker("victim", "0.3");
+    worker("survivor", "0.3");
+    Process& opt = optimizer(experiment(4));
+    // Kill the victim once it is busy: its log says nothing, so wait for the first trial.
+    ASSERT_TRUE(poll([&] { return fs::exists(run_dir()); }, 60));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // tasks are running now
+    victim.kill_hard();
+    ASSERT_EQ(opt.wait(240), 0) << opt.output();
+    EXPECT_EQ(trials(), 4u);
+    expect_store_matches_direct_computation();
+}
+
+TEST_F(ServicesTest, KilledSampleDbRestartsWithoutLosingObservations) {
+    dataset_server();
+    Process* db = &sample_db();
+    worker("w1", "0.02");
+    worker("w2", "0.02");
+    Process& opt = optimizer(experiment(12));
+    ASSERT_TRUE(poll([&] { return trials() >= 4; }, 120)) << opt.output();
+    db->kill_hard();
+    std::size_t before = 0;
+    {
+        store::ObservationStore store(this->db());
+        before = store.count();
+    }
+    EXPECT_GE(before, 4u);
+    db = &sample_db();  // restarted on the same store
+    ASSERT_EQ(opt.wait(240), 0) << opt.output();
+    EXPECT_EQ(trials(), 12u);
+    store::ObservationStore store(db());
+    EXPECT_GE(store.count(), before);
+    expect_store_matches_direct_computation();
+}
+
+TEST_F(ServicesTest, BadRequestsAreRefusedAndTheServiceKeepsServing) {
+    dataset_server();
+    sample_db();
+    worker("w1");
+    dds::Participant me({domain_, "", "maptune_loopback", "bad_client"});
+    std::mutex m;
+    std::map<std::string, v1::ObservationReply> replies;
+    me.reader<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply, dds::TopicQos::kReliable,
+                                             [&](const v1::ObservationReply& r) {
+                                                 std::lock_guard<std::mutex> lock(m);
+                                                 replies[r.request_id()] = r;
+                                             });
+    auto w = me.writer<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest, dds::TopicQos::kReliable);
+    ASSERT_TRUE(w.wait_for_readers(1, std::chrono::seconds(30)));
+    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+    auto request = [&](const std::string& id, params::ParameterSet p) {
+        v1::ObservationRequest r;
+        r.request_id(id);
+        r.requester("bad_client");
+        r.dataset_id(dataset_id());
+        r.view("subsequent");
+        r.matcher_id("analytic");
+        r.matcher_version("1");
+        r.space_hash(space.hash());
+        r.params(dds::to_msg(p));
+        return r;
+    };
+    struct Case {
+        v1::ObservationRequest r;
+        std::string fragment;
+    };
+    std::vector<Case> cases;
+    cases.push_back({request("nan", {{"r_N", std::nan("")}}), "r_N: value is not a finite number"});
+    cases.push_back({request("bounds", {{"n_C", 42}}), "n_C: 42.0 is outside [1.0, 10.0]"});
+    cases.push_back({request("unknown", {{"colour", 1}}), "colour: unknown parameter"});
+    auto r = request("space", {});
+    r.space_hash("0000000000000000");
+    cases.push_back({r, "design space 0000000000000000 differs"});
+    r = request("view", {});
+    r.view("sideways");
+    cases.push_back({r, "view 'sideways'"});
+    r = request("dataset", {});
+    r.dataset_id("no-such-dataset");
+    cases.push_back({r, "unknown dataset"});
+    for (const auto& c : cases) w.write(c.r);
+    w.write(request("good", {{"t_K", 0.9}}));
+    ASSERT_TRUE(poll([&] {
+        std::lock_guard<std::mutex> lock(m);
+        return replies.size() == cases.size() + 1;
+    }, 90)) << "got " << replies.size();
+    std::lock_guard<std::mutex> lock(m);
+    for (const auto& c : cases) {
+        const auto& rep = replies[c.r.request_id()];
+        EXPECT_FALSE(rep.ok()) << c.r.request_id();
+        EXPECT_NE(rep.error().find(c.fragment), std::string::npos) << c.r.request_id() << ": " << rep.error();
+    }
+    EXPECT_TRUE(replies["good"].ok()) << replies["good"].error();
+    EXPECT_EQ(replies["good"].pairs().size(), 4u);  // 5 submaps: 4 subsequent pairs
+}
+
+}  // namespace
+}  // namespace maptune
