@@ -26,12 +26,20 @@ Eigen::MatrixXd covariance(Eigen::Index n) {
 }
 
 void BM_Factorize(benchmark::State& state, CholeskyBackend backend) {
+    if (backend == CholeskyBackend::cholmod && !maptune::gp::cholmod_available()) {
+        state.SkipWithError("built without CHOLMOD");
+        return;
+    }
     const Eigen::MatrixXd k = covariance(state.range(0));
     auto chol = maptune::gp::make_cholesky(backend);
     for (auto _ : state) benchmark::DoNotOptimize(chol->compute(k));
 }
 
 void BM_Append(benchmark::State& state, CholeskyBackend backend) {
+    if (backend == CholeskyBackend::cholmod && !maptune::gp::cholmod_available()) {
+        state.SkipWithError("built without CHOLMOD");
+        return;
+    }
     const Eigen::Index n = state.range(0);
     const Eigen::MatrixXd k = covariance(n + 1);
     auto chol = maptune::gp::make_cholesky(backend);
@@ -43,6 +51,10 @@ void BM_Append(benchmark::State& state, CholeskyBackend backend) {
 }
 
 void BM_SolveLower1024(benchmark::State& state, CholeskyBackend backend) {
+    if (backend == CholeskyBackend::cholmod && !maptune::gp::cholmod_available()) {
+        state.SkipWithError("built without CHOLMOD");
+        return;
+    }
     const Eigen::Index n = state.range(0);
     auto chol = maptune::gp::make_cholesky(backend);
     chol->compute(covariance(n));

@@ -19,7 +19,8 @@ using namespace maptune::matcher;
 
 namespace {
 double now_s() {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
 }
 std::map<std::string, double> parse_kv(const std::string& s) {
     std::map<std::string, double> out;
@@ -34,7 +35,8 @@ pcl::PointCloud<pcl::SHOT1344>::Ptr to_pcl(const DescriptorMatrix& D) {
     pcl::PointCloud<pcl::SHOT1344>::Ptr c(new pcl::PointCloud<pcl::SHOT1344>);
     c->resize(static_cast<std::size_t>(D.rows()));
     for (Eigen::Index i = 0; i < D.rows(); ++i) {
-        for (int j = 0; j < kDescriptorSize; ++j) (*c)[static_cast<std::size_t>(i)].descriptor[j] = D(i, j);
+        for (int j = 0; j < kDescriptorSize; ++j)
+            (*c)[static_cast<std::size_t>(i)].descriptor[j] = D(i, j);
         for (int j = 0; j < 9; ++j) (*c)[static_cast<std::size_t>(i)].rf[j] = 0.f;
     }
     return c;
@@ -46,11 +48,16 @@ int main(int argc, char** argv) {
     int queries = 300, reps = 3;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i], v = argv[i + 1];
-        if (k == "--target") target = v;
-        else if (k == "--source") source = v;
-        else if (k == "--params") params_s = v;
-        else if (k == "--queries") queries = std::atoi(v.c_str());
-        else if (k == "--reps") reps = std::atoi(v.c_str());
+        if (k == "--target")
+            target = v;
+        else if (k == "--source")
+            source = v;
+        else if (k == "--params")
+            params_s = v;
+        else if (k == "--queries")
+            queries = std::atoi(v.c_str());
+        else if (k == "--reps")
+            reps = std::atoi(v.c_str());
     }
     if (target.empty() || source.empty()) {
         std::cerr << "usage: matcher_descriptor_bench --target A --source B [--params k=v,...]\n";
@@ -80,10 +87,10 @@ int main(int argc, char** argv) {
         fast = match_descriptors(A, B, params.n_C, params.t_C);
         best = std::min(best, now_s() - t0);
     }
-    std::printf("GEMM matcher (both directions): %.4f s  = %.2f us per query  (%.1f GFLOP/s of "
-                "GEMM work), %zu correspondences\n",
-                best, 1e6 * best / (na + nb), 2.0 * na * nb * kDescriptorSize / best / 1e9,
-                fast.size());
+    std::printf(
+        "GEMM matcher (both directions): %.4f s  = %.2f us per query  (%.1f GFLOP/s of "
+        "GEMM work), %zu correspondences\n",
+        best, 1e6 * best / (na + nb), 2.0 * na * nb * kDescriptorSize / best / 1e9, fast.size());
 
     // 2. KdTreeFLANN (exact, single k-d tree as PCL configures it), per query.
     const double tb0 = now_s();
@@ -109,9 +116,10 @@ int main(int argc, char** argv) {
         agree += !flann_nn[static_cast<std::size_t>(q)].empty() &&
                  flann_nn[static_cast<std::size_t>(q)][0] == static_cast<int>(j);
     }
-    std::printf("KdTreeFLANN: build %.3f s, %.3f ms per query (%d queries); both directions "
-                "extrapolated: %.2f s; nearest neighbour agrees with GEMM for %d of %d\n",
-                t_build, 1e3 * per_query, nq, per_query * (na + nb) + t_build, agree, nq);
+    std::printf(
+        "KdTreeFLANN: build %.3f s, %.3f ms per query (%d queries); both directions "
+        "extrapolated: %.2f s; nearest neighbour agrees with GEMM for %d of %d\n",
+        t_build, 1e3 * per_query, nq, per_query * (na + nb) + t_build, agree, nq);
     std::printf("speed-up GEMM vs KdTreeFLANN (both directions): %.0fx\n",
                 (per_query * (na + nb) + t_build) / best);
 
@@ -125,8 +133,9 @@ int main(int argc, char** argv) {
     std::size_t same = 0;
     for (std::size_t i = 0; i < std::min(oracle.size(), fast_s.size()); ++i)
         same += oracle[i].a == fast_s[i].a && oracle[i].b == fast_s[i].b;
-    std::printf("oracle on %d x %d: %.3f s; GEMM result %zu vs oracle %zu correspondences, %zu "
-                "identical in order\n",
-                ns, ns, t_oracle, fast_s.size(), oracle.size(), same);
+    std::printf(
+        "oracle on %d x %d: %.3f s; GEMM result %zu vs oracle %zu correspondences, %zu "
+        "identical in order\n",
+        ns, ns, t_oracle, fast_s.size(), oracle.size(), same);
     return 0;
 }

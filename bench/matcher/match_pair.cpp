@@ -34,17 +34,30 @@ std::map<std::string, double> parse_kv(const std::string& s) {
 
 void apply_settings(MatcherSettings& s, const std::map<std::string, double>& kv) {
     for (const auto& [k, v] : kv) {
-        if (k == "ransac_thr") s.ransac_inlier_threshold_m = v;
-        else if (k == "icp_corr") s.icp_max_correspondence_m = v;
-        else if (k == "icp_iter") s.icp_max_iterations = static_cast<int>(v);
-        else if (k == "icp_voxel") s.icp_voxel_m = v;
-        else if (k == "line_thr") s.line_threshold_m = v;
-        else if (k == "threads") s.threads = static_cast<int>(v);
-        else if (k == "sor") s.outlier_removal = v != 0;
-        else if (k == "surface_k") s.surface_points_per_radius = v;
-        else if (k == "seed") s.seed = static_cast<std::uint64_t>(v);
-        else if (k == "icp") s.icp_enabled = v != 0;
-        else std::cerr << "unknown setting " << k << "\n";
+        if (k == "ransac_thr")
+            s.ransac_inlier_threshold_m = v;
+        else if (k == "icp_corr")
+            s.icp_max_correspondence_m = v;
+        else if (k == "icp_iter")
+            s.icp_max_iterations = static_cast<int>(v);
+        else if (k == "icp_voxel")
+            s.icp_voxel_m = v;
+        else if (k == "line_thr")
+            s.line_threshold_m = v;
+        else if (k == "threads")
+            s.threads = static_cast<int>(v);
+        else if (k == "sor")
+            s.outlier_removal = v != 0;
+        else if (k == "surface_k")
+            s.surface_points_per_radius = v;
+        else if (k == "seed")
+            s.seed = static_cast<std::uint64_t>(v);
+        else if (k == "icp")
+            s.icp_enabled = v != 0;
+        else if (k == "board")
+            s.lrf_method = v != 0 ? LrfMethod::kBoard : LrfMethod::kShot;
+        else
+            std::cerr << "unknown setting " << k << "\n";
     }
 }
 
@@ -61,14 +74,22 @@ int main(int argc, char** argv) {
     int repeat = 1;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i], v = argv[i + 1];
-        if (k == "--target") target = v;
-        else if (k == "--source") source = v;
-        else if (k == "--ref-matrix") ref_matrix = v;
-        else if (k == "--bunny-conf") bunny_conf = v;
-        else if (k == "--car-list") car_list = v;
-        else if (k == "--params") params_s = v;
-        else if (k == "--set") set_s = v;
-        else if (k == "--repeat") repeat = std::atoi(v.c_str());
+        if (k == "--target")
+            target = v;
+        else if (k == "--source")
+            source = v;
+        else if (k == "--ref-matrix")
+            ref_matrix = v;
+        else if (k == "--bunny-conf")
+            bunny_conf = v;
+        else if (k == "--car-list")
+            car_list = v;
+        else if (k == "--params")
+            params_s = v;
+        else if (k == "--set")
+            set_s = v;
+        else if (k == "--repeat")
+            repeat = std::atoi(v.c_str());
         else {
             std::cerr << "unknown option " << k << "\n";
             return 2;
@@ -114,34 +135,38 @@ int main(int argc, char** argv) {
         const auto t0 = std::chrono::steady_clock::now();
         const auto fa = m.features(a, params);
         const auto fb = m.features(b, params);
-        const double t_feat = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double t_feat =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         for (const auto* f : {fa.get(), fb.get()})
-            std::printf("features %s: status %d (%s) points %d->%d candidates %d voxel_kp %d kept %d "
-                        "invalid desc %d lrf %d normals %d, %.3f s\n",
-                        f->submap_id.c_str(), static_cast<int>(f->status), f->reason.c_str(),
-                        f->points_in, f->points_filtered, f->keypoint_candidates, f->keypoints_voxel,
-                        f->num_keypoints(), f->invalid_descriptors, f->invalid_lrfs,
-                        f->invalid_normals, f->duration_s);
+            std::printf(
+                "features %s: status %d (%s) points %d->%d candidates %d voxel_kp %d kept %d "
+                "invalid desc %d lrf %d normals %d, %.3f s\n",
+                f->submap_id.c_str(), static_cast<int>(f->status), f->reason.c_str(), f->points_in,
+                f->points_filtered, f->keypoint_candidates, f->keypoints_voxel, f->num_keypoints(),
+                f->invalid_descriptors, f->invalid_lrfs, f->invalid_normals, f->duration_s);
         const auto t1 = std::chrono::steady_clock::now();
         const auto r = match_features(*fa, *fb, params, settings, Deadline::in(60),
                                       pair_seed(settings.seed, a.id, b.id));
-        const double t_pair = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+        const double t_pair =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
         double rot = 0, trans = 0;
         errors(r.T_a_b, T_ref, rot, trans);
-        std::printf("pair: %s (%s) kp %d/%d corr %d groups %d collinear %d group %d inliers %d "
-                    "icp_fitness %.3g\n",
-                    to_string(r.status), r.reason.c_str(), r.keypoints_a, r.keypoints_b,
-                    r.correspondences, r.groups, r.collinear_groups, r.group_size, r.ransac_inliers,
-                    r.icp_fitness);
+        std::printf(
+            "pair: %s (%s) kp %d/%d corr %d groups %d collinear %d group %d inliers %d "
+            "icp_fitness %.3g icp_inliers %.2f\n",
+            to_string(r.status), r.reason.c_str(), r.keypoints_a, r.keypoints_b, r.correspondences,
+            r.groups, r.collinear_groups, r.group_size, r.ransac_inliers, r.icp_fitness,
+            r.icp_inlier_fraction);
         std::printf("stages: descriptors %.3f s, grouping+RANSAC %.3f s, ICP %.3f s\n",
                     r.descriptor_s, r.grouping_s, r.icp_s);
-        std::printf("RESULT matched %d rot_err_deg %.4f trans_err_m %.5f trans_err_pct_extent %.3f "
-                    "features_s %.3f pair_s %.3f total_s %.3f\n",
-                    r.matched ? 1 : 0, rot, trans, 100.0 * trans / extent, t_feat, t_pair,
-                    t_feat + t_pair);
+        std::printf(
+            "RESULT matched %d rot_err_deg %.4f trans_err_m %.5f trans_err_pct_extent %.3f "
+            "features_s %.3f pair_s %.3f total_s %.3f\n",
+            r.matched ? 1 : 0, rot, trans, 100.0 * trans / extent, t_feat, t_pair, t_feat + t_pair);
         if (rep == 0 && fa->status == FeatureStatus::kOk && fb->status == FeatureStatus::kOk) {
             // Diagnosis: how many correspondences agree with the reference?
-            const auto corrs = match_descriptors(fa->descriptors, fb->descriptors, params.n_C, params.t_C);
+            const auto corrs =
+                match_descriptors(fa->descriptors, fb->descriptors, params.n_C, params.t_C);
             const Eigen::Matrix4f Tf = T_ref.cast<float>();
             const double tol = params.v_K;
             int good = 0;
@@ -159,25 +184,31 @@ int main(int argc, char** argv) {
                 if ((pbt - fa->keypoints.col(c.a)).norm() >= tol) continue;
                 ++n_ok;
                 const Eigen::Matrix3f Ra = fa->lrfs[static_cast<std::size_t>(c.a)];
-                const Eigen::Matrix3f Rb = fb->lrfs[static_cast<std::size_t>(c.b)] * Rref.transpose();
+                const Eigen::Matrix3f Rb =
+                    fb->lrfs[static_cast<std::size_t>(c.b)] * Rref.transpose();
                 const float ang = Eigen::AngleAxisf(Eigen::Matrix3f(Ra * Rb.transpose())).angle();
                 lrf_ok += ang < 0.2f;
-                const Eigen::Vector3f vote = fa->keypoints.col(c.a) + Ra.transpose() *
-                    (fb->lrfs[static_cast<std::size_t>(c.b)] * (fb->keypoint_centroid - fb->keypoints.col(c.b)));
+                const Eigen::Vector3f vote =
+                    fa->keypoints.col(c.a) +
+                    Ra.transpose() * (fb->lrfs[static_cast<std::size_t>(c.b)] *
+                                      (fb->keypoint_centroid - fb->keypoints.col(c.b)));
                 vote_err += (vote - true_vote).norm();
             }
-            std::printf("diag: correct corr with LRF within 11 deg: %d of %d; mean vote error %.4f m\n",
-                        lrf_ok, n_ok, n_ok ? vote_err / n_ok : 0.0);
+            std::printf(
+                "diag: correct corr with LRF within 11 deg: %d of %d; mean vote error %.4f m\n",
+                lrf_ok, n_ok, n_ok ? vote_err / n_ok : 0.0);
             const auto g = hough_groups(*fa, *fb, corrs, params.v_TF, params.n_TF);
             int gbest = 0;
             if (!g.groups.empty())
                 for (int c : g.groups.front()) {
                     const auto& k = corrs[static_cast<std::size_t>(c)];
-                    const Eigen::Vector3f pbt = (Tf * fb->keypoints.col(k.b).homogeneous()).head<3>();
+                    const Eigen::Vector3f pbt =
+                        (Tf * fb->keypoints.col(k.b).homogeneous()).head<3>();
                     gbest += (pbt - fa->keypoints.col(k.a)).norm() < tol;
                 }
-            std::printf("diag: correct corr (within v_K) %d of %zu; largest group %zu with %d correct\n",
-                        good, corrs.size(), g.groups.empty() ? 0 : g.groups.front().size(), gbest);
+            std::printf(
+                "diag: correct corr (within v_K) %d of %zu; largest group %zu with %d correct\n",
+                good, corrs.size(), g.groups.empty() ? 0 : g.groups.front().size(), gbest);
             std::cout << "T_est\n" << r.T_a_b << "\nT_ref\n" << T_ref << "\n";
         }
     }

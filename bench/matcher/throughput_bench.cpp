@@ -32,9 +32,12 @@ int main(int argc, char** argv) {
     std::string params_s;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i], v = argv[i + 1];
-        if (k == "--submaps") n = std::atoi(v.c_str());
-        else if (k == "--threads") threads = std::atoi(v.c_str());
-        else if (k == "--params") params_s = v;
+        if (k == "--submaps")
+            n = std::atoi(v.c_str());
+        else if (k == "--threads")
+            threads = std::atoi(v.c_str());
+        else if (k == "--params")
+            params_s = v;
     }
     // A 6 + 2n metre strip of rocks; submap i covers x in [2i, 2i + 6] (6 x 6 m), with its
     // own origin and yaw, so neighbours overlap by 4 m and pairs more than 2 apart do not.
@@ -70,25 +73,30 @@ int main(int argc, char** argv) {
         EvaluationStats st;
         const auto t0 = std::chrono::steady_clock::now();
         const auto res = m.match_pairs(submaps, pairs, params, &st);
-        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         int correct = 0;
         for (std::size_t k = 0; k < res.size(); ++k) {
             if (!res[k].matched) continue;
             const auto& a = submaps[static_cast<std::size_t>(pairs[k].first)];
             const auto& b = submaps[static_cast<std::size_t>(pairs[k].second)];
-            const Eigen::Matrix4d ref = (a.T_world_submap_gt.inverse() * b.T_world_submap_gt).matrix();
-            const Eigen::Matrix3d dR = ref.topLeftCorner<3, 3>().transpose() * res[k].T_a_b.topLeftCorner<3, 3>();
-            const double e_t = (ref.topRightCorner<3, 1>() - res[k].T_a_b.topRightCorner<3, 1>()).norm();
+            const Eigen::Matrix4d ref =
+                (a.T_world_submap_gt.inverse() * b.T_world_submap_gt).matrix();
+            const Eigen::Matrix3d dR =
+                ref.topLeftCorner<3, 3>().transpose() * res[k].T_a_b.topLeftCorner<3, 3>();
+            const double e_t =
+                (ref.topRightCorner<3, 1>() - res[k].T_a_b.topRightCorner<3, 1>()).norm();
             correct += e_t < 0.2 && Eigen::AngleAxisd(dR).angle() < 2.0 * M_PI / 180.0;
         }
-        std::printf("%s: wall %.2f s; features %.2f s (%d submaps, %.2f submaps/s, %llu misses, "
-                    "%llu hits); pairs %.2f s (%.1f pairs/s); matched %d (correct %d), failed %d, "
-                    "timeouts %d\n",
-                    label, wall, st.feature_wall_s, st.submaps,
-                    st.cache_misses ? st.submaps / st.feature_wall_s : 0.0,
-                    static_cast<unsigned long long>(st.cache_misses),
-                    static_cast<unsigned long long>(st.cache_hits), st.pair_wall_s,
-                    st.pairs / st.pair_wall_s, st.matched, correct, st.failed, st.timeouts);
+        std::printf(
+            "%s: wall %.2f s; features %.2f s (%d submaps, %.2f submaps/s, %llu misses, "
+            "%llu hits); pairs %.2f s (%.1f pairs/s); matched %d (correct %d), failed %d, "
+            "timeouts %d\n",
+            label, wall, st.feature_wall_s, st.submaps,
+            st.cache_misses ? st.submaps / st.feature_wall_s : 0.0,
+            static_cast<unsigned long long>(st.cache_misses),
+            static_cast<unsigned long long>(st.cache_hits), st.pair_wall_s,
+            st.pairs / st.pair_wall_s, st.matched, correct, st.failed, st.timeouts);
         return wall;
     };
     const double first = run("baseline (cold cache)", p);

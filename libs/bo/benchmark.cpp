@@ -74,6 +74,17 @@ RegretSummary summarize(const std::string& function, const std::string& acquisit
         const auto e = static_cast<std::size_t>(c - 1);
         s.median_regret.push_back(e < s.median_curve.size() ? s.median_curve[e] : std::nan(""));
     }
+    std::vector<double> finals;
+    for (const RegretRun& r : runs) {
+        if (!r.regret.empty()) finals.push_back(r.regret.back());
+    }
+    if (!finals.empty()) {
+        std::sort(finals.begin(), finals.end());
+        const auto k =
+            static_cast<std::size_t>(std::ceil(0.9 * static_cast<double>(finals.size())));
+        s.final_p90 = finals[std::max<std::size_t>(k, 1) - 1];
+        s.final_max = finals.back();
+    }
     s.median_ask_ms = median(ask_ms);
     s.max_ask_ms = ask_ms.empty() ? 0.0 : *std::max_element(ask_ms.begin(), ask_ms.end());
     return s;

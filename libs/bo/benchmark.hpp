@@ -28,6 +28,8 @@ struct RegretSummary {
     std::vector<int> checkpoints;
     std::vector<double> median_regret;  // at each checkpoint, median over seeds
     std::vector<double> median_curve;   // median regret after each evaluation
+    double final_p90 = 0.0;             // 90th percentile over seeds of the final regret
+    double final_max = 0.0;             // worst seed's final regret
     double median_ask_ms = 0.0;         // over all asks of all seeds
     double max_ask_ms = 0.0;
     double total_seconds = 0.0;

@@ -22,6 +22,38 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b) {
 
 const double kDuplicateTolerance = 1e-9;  // max-norm distance in GP input space
 
+double normal_quantile(double p) {
+    // Bisection on erfc: robust over the whole range and cheap next to the GP.
+    double lo = -12.0, hi = 12.0;
+    for (int i = 0; i < 64; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+// Gaussian copula: Φ⁻¹((rank + ½) / n) with ties sharing their mean rank. Monotone, so the
+// order of points (and the incumbent) is unchanged.
+Eigen::VectorXd copula(const Eigen::VectorXd& y) {
+    const Eigen::Index n = y.size();
+    std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(),
+              [&](Eigen::Index a, Eigen::Index b) { return y(a) < y(b); });
+    Eigen::VectorXd out(n);
+    for (Eigen::Index i = 0; i < n;) {
+        Eigen::Index j = i;
+        while (j + 1 < n &&
+               y(order[static_cast<std::size_t>(j + 1)]) == y(order[static_cast<std::size_t>(i)]))
+            ++j;
+        const double rank = 0.5 * static_cast<double>(i + j);
+        const double z = normal_quantile((rank + 0.5) / static_cast<double>(n));
+        for (Eigen::Index k = i; k <= j; ++k) out(order[static_cast<std::size_t>(k)]) = z;
+        i = j + 1;
+    }
+    return out;
+}
+
 // Negative acquisition over u for LBFGSpp; integer coordinates are held fixed by their bounds
 // and get zero gradient because the model input is piecewise constant in them.
 struct AcquisitionObjective {
@@ -137,6 +169,10 @@ Optimizer::Model Optimizer::build_model() {
         y(k++) = worst;
     }
 
+    if (options_.warping == OutputWarping::copula && n > 0) {
+        y = copula(y);
+        best = y.head(static_cast<Eigen::Index>(ok.size())).maxCoeff();
+    }
     gp::GpOptions gp_options = options_.gp;
     // After the first fit the previous optimum is a good start; the fixed one only costs time.
     if (last_fit_n_ > 0) gp_options.fit.fixed_start = false;
@@ -162,6 +198,33 @@ Optimizer::Model Optimizer::build_model() {
         m.incumbent = std::max(m.incumbent, mean(0));
     }
     return m;
+}
+
+std::optional<PredictedBest> Optimizer::predicted_best() const {
+    std::vector<std::size_t> ok;
+    for (std::size_t i = 0; i < observations_.size(); ++i) {
+        if (!observations_[i].failed) ok.push_back(i);
+    }
+    if (ok.size() < 2 || hp_.length_scales.size() != space_.dim()) return std::nullopt;
+    const auto n = static_cast<Eigen::Index>(ok.size());
+    Eigen::MatrixXd x(space_.dim(), n);
+    Eigen::VectorXd y(n);
+    for (Eigen::Index k = 0; k < n; ++k) {
+        x.col(k) = observed_points_[ok[static_cast<std::size_t>(k)]].g;
+        y(k) = internal(observations_[ok[static_cast<std::size_t>(k)]].value);
+    }
+    gp::GaussianProcess model(space_.dim(), options_.gp);
+    model.set_hyperparameters(hp_);
+    if (!model.set_data(x, y)) return std::nullopt;
+    Eigen::VectorXd mean, var;
+    model.predict(x, mean, var);
+    Eigen::Index best = 0;
+    mean.maxCoeff(&best);
+    PredictedBest out;
+    out.values = observations_[ok[static_cast<std::size_t>(best)]].values;
+    out.mean = internal(mean(best));  // internal() is its own inverse
+    out.std = std::sqrt(std::max(0.0, var(best)));
+    return out;
 }
 
 Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_t seed) {

@@ -18,7 +18,6 @@ const double kSqrt5 = std::sqrt(5.0);
 const double kLog2Pi = std::log(2.0 * M_PI);
 
 // Priors in log space: mean and standard deviation of a normal on log(value).
-const double kLengthScalePriorSd = std::sqrt(3.0);
 const double kSignalPriorMean = 0.0;  // standardized outputs: signal variance near 1
 const double kSignalPriorSd = 1.5;
 const double kNoisePriorMean = std::log(1e-4);  // near-deterministic objectives are common
@@ -41,15 +40,17 @@ Bounds log_bounds(int dim, const FitOptions& o) {
     return b;
 }
 
-double add_prior(const Eigen::VectorXd& theta, int dim, Eigen::VectorXd* grad) {
+double add_prior(const Eigen::VectorXd& theta, int dim, const FitOptions& o,
+                 Eigen::VectorXd* grad) {
     double nlp = 0.0;
     auto term = [&](Eigen::Index i, double mean, double sd) {
         const double z = (theta(i) - mean) / sd;
         nlp += 0.5 * z * z;
         if (grad != nullptr) (*grad)(i) += z / sd;
     };
-    const double ls_mean = length_scale_prior_mean(dim);
-    for (int j = 0; j < dim; ++j) term(j, ls_mean, kLengthScalePriorSd);
+    const double ls_mean = std::isnan(o.length_scale_prior_mean) ? length_scale_prior_mean(dim)
+                                                                 : o.length_scale_prior_mean;
+    for (int j = 0; j < dim; ++j) term(j, ls_mean, o.length_scale_prior_sd);
     term(dim, kSignalPriorMean, kSignalPriorSd);
     term(dim + 1, kNoisePriorMean, kNoisePriorSd);
     return nlp;
@@ -128,7 +129,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
         (*grad)(dim) = -0.5 * (w.array() * kf.array()).sum();
         (*grad)(dim + 1) = -0.5 * hp.noise_variance * w.trace();
     }
-    if (options.use_priors) value += add_prior(theta, dim, grad);
+    if (options.use_priors) value += add_prior(theta, dim, options, grad);
     return value;
 }
 

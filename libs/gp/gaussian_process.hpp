@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <memory>
 
 #include "gp/cholesky.hpp"
@@ -21,10 +22,14 @@ enum class MeanKind {
 
 // Hyperparameter fitting: maximum a posteriori in log space by L-BFGS-B, several starts.
 struct FitOptions {
-    int random_starts = 1;          // random starts, in addition to the warm start and a fixed one
+    int random_starts = 2;          // random starts, in addition to the warm start and a fixed one
     int max_iterations = 50;        // L-BFGS-B iterations per start
     Eigen::Index max_points = 200;  // fit on a seeded random subset above this (O(n³) per step)
-    bool use_priors = true;   // log-normal priors; false gives plain type-II maximum likelihood
+    bool use_priors = true;  // log-normal priors; false gives plain type-II maximum likelihood
+    // Log-normal length-scale prior: log l ~ N(mean, sd²). A NaN mean selects the
+    // dimension-scaled centre length_scale_prior_mean(d).
+    double length_scale_prior_mean = std::numeric_limits<double>::quiet_NaN();
+    double length_scale_prior_sd = 1.7320508075688772;  // √3
     bool fixed_start = true;  // also start from a fixed moderate point (off for warm refits)
     // Bounds, in unit-cube units for length scales and standardized units for variances.
     double min_length_scale = 1e-2;

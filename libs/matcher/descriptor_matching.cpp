@@ -9,7 +9,7 @@ namespace {
 // Keeps the n best (largest score, then smallest index) candidates in a small sorted array;
 // n <= 10 so insertion beats any heap.
 class TopN {
-public:
+  public:
     void reset(int n) {
         n_ = n;
         size_ = 0;
@@ -30,7 +30,7 @@ public:
     float score(int i) const { return score_[i]; }
     int index(int i) const { return index_[i]; }
 
-private:
+  private:
     static bool better(float s, int i, float s2, int i2) { return s > s2 || (s == s2 && i < i2); }
     static constexpr int kMax = 16;
     float score_[kMax] = {};
@@ -124,11 +124,17 @@ std::vector<Correspondence> match_descriptors_brute_force(const DescriptorMatrix
         }
     };
     for (int i = 0; i < na; ++i)
-        take(nb, [&](int j) { return D(i, j); },
-             [&](int j, double d) { out.push_back({i, j, static_cast<float>(d)}); });
+        take(
+            nb, [&](int j) { return D(i, j); },
+            [&](int j, double d) {
+                out.push_back({i, j, static_cast<float>(d)});
+            });
     for (int j = 0; j < nb; ++j)
-        take(na, [&](int i) { return D(i, j); },
-             [&](int i, double d) { out.push_back({i, j, static_cast<float>(d)}); });
+        take(
+            na, [&](int i) { return D(i, j); },
+            [&](int i, double d) {
+                out.push_back({i, j, static_cast<float>(d)});
+            });
     dedup(out);
     return out;
 }

@@ -40,8 +40,8 @@ FeatureCache::FeaturesPtr FeatureCache::find(const std::string& key) {
     return it->second->value;
 }
 
-FeatureCache::FeaturesPtr FeatureCache::get_or_compute(const std::string& key,
-                                                       const std::function<FeaturesPtr()>& compute) {
+FeatureCache::FeaturesPtr FeatureCache::get_or_compute(
+    const std::string& key, const std::function<FeaturesPtr()>& compute) {
     std::promise<FeaturesPtr> promise;
     {
         std::unique_lock<std::mutex> lock(mutex_);

@@ -28,7 +28,7 @@ struct FeatureCacheOptions {
 
 struct FeatureCacheStats {
     std::uint64_t hits = 0;
-    std::uint64_t misses = 0;     // computations started
+    std::uint64_t misses = 0;  // computations started
     std::uint64_t evictions = 0;
     std::size_t bytes = 0;
     std::size_t entries = 0;
@@ -43,7 +43,7 @@ std::string feature_key(const dataset::Submap& submap, const MatcherParams& para
                         const MatcherSettings& settings, double quantum);
 
 class FeatureCache {
-public:
+  public:
     using FeaturesPtr = std::shared_ptr<const SubmapFeatures>;
     explicit FeatureCache(FeatureCacheOptions options = {});
 
@@ -56,7 +56,7 @@ public:
     const FeatureCacheOptions& options() const { return options_; }
     void clear();
 
-private:
+  private:
     struct Entry {
         std::string key;
         FeaturesPtr value;

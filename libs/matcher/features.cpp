@@ -3,6 +3,7 @@
 
 #include <octomap/OcTree.h>
 #include <pcl/console/print.h>
+#include <pcl/features/board.h>
 #include <pcl/features/normal_3d.h>
 #include <pcl/features/shot.h>
 #include <pcl/features/shot_lrf.h>
@@ -107,8 +108,7 @@ std::vector<Eigen::Vector3f> ball_offsets(double radius, double step) {
 }
 
 std::shared_ptr<SubmapFeatures> fail(std::shared_ptr<SubmapFeatures> f, FeatureStatus status,
-                                     std::string reason,
-                                     std::chrono::steady_clock::time_point t0) {
+                                     std::string reason, std::chrono::steady_clock::time_point t0) {
     f->status = status;
     f->reason = std::move(reason);
     f->keypoints.resize(3, 0);
@@ -172,8 +172,8 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     }
     f->points_in = static_cast<int>(raw->size());
     if (f->points_in < std::max(settings.min_points, 1))
-        return fail(f, FeatureStatus::kFailed,
-                    "too few points: " + std::to_string(f->points_in), t0);
+        return fail(f, FeatureStatus::kFailed, "too few points: " + std::to_string(f->points_in),
+                    t0);
     if (!(params.r_N > 0 && params.v_K > 0 && params.r_D > 0 && params.r_LRF > 0))
         return fail(f, FeatureStatus::kFailed, "non-positive radius or leaf size", t0);
 
@@ -227,9 +227,9 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     // 4. Unknown-space filter: keep iff unknown fraction u <= t_K (t_K >= 1 keeps all).
     if (submap.octree && params.t_K < 1.0) {
         const octomap::OcTree& tree = *submap.octree;
-        const double step = std::max(tree.getResolution(),
-                                     2.0 * params.r_D /
-                                         std::max(1.0, settings.unknown_samples_per_diameter));
+        const double step =
+            std::max(tree.getResolution(),
+                     2.0 * params.r_D / std::max(1.0, settings.unknown_samples_per_diameter));
         const auto offsets = ball_offsets(params.r_D, step);
         std::vector<int> kept;
         for (int idx : keypoint_idx) {
@@ -300,15 +300,37 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     }
     if (timed_out()) return fail(f, FeatureStatus::kTimeout, "timeout after descriptors", t0);
 
-    // 6. LRFs of radius r_LRF for Hough voting (SHOT's LRF: needs no normals).
+    // 6. LRFs of radius r_LRF for Hough voting: BOARD (as in PCL's correspondence grouping)
+    // or SHOT's LRF (needs no normals).
     pcl::PointCloud<pcl::ReferenceFrame> frames;
     {
         const auto lrf_surface = voxelize(*filtered, params.r_LRF / k);
-        pcl::SHOTLocalReferenceFrameEstimation<PointT, pcl::ReferenceFrame> est;
-        est.setInputCloud(keypoints);
-        est.setSearchSurface(lrf_surface);
-        est.setRadiusSearch(params.r_LRF);
-        est.compute(frames);
+        if (settings.lrf_method == LrfMethod::kBoard) {
+            // BOARD needs normals of its search surface (PCL indexes them like the surface).
+            auto surface_normals =
+                pcl::PointCloud<pcl::Normal>::Ptr(new pcl::PointCloud<pcl::Normal>);
+            pcl::NormalEstimation<PointT, pcl::Normal> ne;
+            ne.setSearchSurface(normal_surface);
+            ne.setRadiusSearch(params.r_N);
+            ne.setViewPoint(static_cast<float>(settings.viewpoint_x),
+                            static_cast<float>(settings.viewpoint_y),
+                            static_cast<float>(settings.viewpoint_z));
+            ne.setInputCloud(lrf_surface);
+            ne.compute(*surface_normals);
+            pcl::BOARDLocalReferenceFrameEstimation<PointT, pcl::Normal, pcl::ReferenceFrame> est;
+            est.setInputCloud(keypoints);
+            est.setInputNormals(surface_normals);
+            est.setSearchSurface(lrf_surface);
+            est.setRadiusSearch(params.r_LRF);
+            est.setFindHoles(true);
+            est.compute(frames);
+        } else {
+            pcl::SHOTLocalReferenceFrameEstimation<PointT, pcl::ReferenceFrame> est;
+            est.setInputCloud(keypoints);
+            est.setSearchSurface(lrf_surface);
+            est.setRadiusSearch(params.r_LRF);
+            est.compute(frames);
+        }
     }
 
     // Keep keypoints with a valid descriptor and LRF; normalize descriptors to unit length.
@@ -342,10 +364,10 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
         good.push_back(static_cast<int>(i));
     }
     if (static_cast<int>(good.size()) < std::max(settings.min_keypoints, 1))
-        return fail(f, FeatureStatus::kFailed,
-                    "too few keypoints with a valid descriptor and LRF: " +
-                        std::to_string(good.size()),
-                    t0);
+        return fail(
+            f, FeatureStatus::kFailed,
+            "too few keypoints with a valid descriptor and LRF: " + std::to_string(good.size()),
+            t0);
 
     f->keypoints.resize(3, static_cast<Eigen::Index>(good.size()));
     f->descriptors.resize(static_cast<Eigen::Index>(good.size()), kDescriptorSize);
@@ -369,8 +391,8 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     {
         auto icp = std::make_shared<IcpCloud>();
         icp->cloud.reset(new pcl::PointCloud<pcl::PointXYZ>);
-        const auto src = settings.icp_voxel_m > 0 ? voxelize(*filtered, settings.icp_voxel_m)
-                                                  : filtered;
+        const auto src =
+            settings.icp_voxel_m > 0 ? voxelize(*filtered, settings.icp_voxel_m) : filtered;
         icp->cloud->reserve(src->size());
         for (const auto& p : src->points) icp->cloud->push_back(pcl::PointXYZ(p.x, p.y, p.z));
         icp->tree.reset(new pcl::search::KdTree<pcl::PointXYZ>);

@@ -36,21 +36,21 @@ struct SubmapFeatures {
     FeatureStatus status = FeatureStatus::kFailed;
     std::string reason;  // why not kOk
 
-    Eigen::Matrix3Xf keypoints;            // submap frame [m], one column per keypoint
-    DescriptorMatrix descriptors;          // rows match keypoint columns
-    std::vector<Eigen::Matrix3f> lrfs;     // rows: x, y, z axes in the submap frame
+    Eigen::Matrix3Xf keypoints;         // submap frame [m], one column per keypoint
+    DescriptorMatrix descriptors;       // rows match keypoint columns
+    std::vector<Eigen::Matrix3f> lrfs;  // rows: x, y, z axes in the submap frame
     Eigen::Vector3f keypoint_centroid = Eigen::Vector3f::Zero();
     std::shared_ptr<const IcpCloud> icp_cloud;
 
     // Counters.
     int points_in = 0;
-    int points_filtered = 0;        // after outlier removal
-    int keypoint_candidates = 0;    // obstacle points, or cloud points as fallback
+    int points_filtered = 0;           // after outlier removal
+    int keypoint_candidates = 0;       // obstacle points, or cloud points as fallback
     bool used_cloud_fallback = false;  // submap had no obstacle points
-    int keypoints_voxel = 0;        // after v_K thinning and snapping
-    int keypoints_unknown = 0;      // after the unknown-space filter
-    int invalid_descriptors = 0;    // CSHOT aborted (PCL would have printed a warning)
-    int invalid_lrfs = 0;           // LRF invalid (PCL would have printed a warning)
+    int keypoints_voxel = 0;           // after v_K thinning and snapping
+    int keypoints_unknown = 0;         // after the unknown-space filter
+    int invalid_descriptors = 0;       // CSHOT aborted (PCL would have printed a warning)
+    int invalid_lrfs = 0;              // LRF invalid (PCL would have printed a warning)
     int invalid_normals = 0;
     double duration_s = 0.0;
 

@@ -22,9 +22,9 @@ HoughGroups hough_groups(const SubmapFeatures& a, const SubmapFeatures& b,
     const double inv = 1.0 / v_tf;
     for (std::size_t c = 0; c < corrs.size(); ++c) {
         const auto& k = corrs[c];
-        const Eigen::Vector3f vote = a.keypoints.col(k.a) +
-                                     a.lrfs[static_cast<std::size_t>(k.a)].transpose() *
-                                         local[static_cast<std::size_t>(k.b)];
+        const Eigen::Vector3f vote =
+            a.keypoints.col(k.a) + a.lrfs[static_cast<std::size_t>(k.a)].transpose() *
+                                       local[static_cast<std::size_t>(k.b)];
         if (!vote.allFinite()) continue;
         bins[{static_cast<std::int64_t>(std::floor(vote.x() * inv)),
               static_cast<std::int64_t>(std::floor(vote.y() * inv)),
@@ -48,8 +48,8 @@ bool is_collinear(const std::vector<Eigen::Vector3f>& points, double threshold_m
     for (int it = 0; it < std::max(1, iterations); ++it) {
         const int i = static_cast<int>(rng() % static_cast<std::uint64_t>(n));
         const int j = static_cast<int>(rng() % static_cast<std::uint64_t>(n));
-        const Eigen::Vector3f d = points[static_cast<std::size_t>(j)] -
-                                  points[static_cast<std::size_t>(i)];
+        const Eigen::Vector3f d =
+            points[static_cast<std::size_t>(j)] - points[static_cast<std::size_t>(i)];
         if (d.norm() <= threshold_m) continue;  // too close to define a line
         any_line = true;
         const Eigen::Vector3f u = d.normalized();

@@ -32,6 +32,14 @@ IcpResult refine_icp(const SubmapFeatures& a, const SubmapFeatures& b,
     result.converged = icp.hasConverged();
     result.T_a_b = T;
     result.fitness = icp.getFitnessScore(max_correspondence_m * max_correspondence_m);
+    // Overlap after alignment, for the optional plausibility check of the match decision.
+    const float max_d2 = static_cast<float>(max_correspondence_m * max_correspondence_m);
+    pcl::Indices nn(1);
+    std::vector<float> d2(1);
+    std::size_t near = 0;
+    for (const auto& p : aligned.points)
+        if (a.icp_cloud->tree->nearestKSearch(p, 1, nn, d2) == 1 && d2[0] <= max_d2) ++near;
+    result.inlier_fraction = aligned.empty() ? 0.0 : static_cast<double>(near) / aligned.size();
     return result;
 }
 

@@ -8,10 +8,11 @@
 namespace maptune::matcher {
 
 struct IcpResult {
-    bool ok = false;                                   // finite result
+    bool ok = false;                                      // finite result
     Eigen::Matrix4f T_a_b = Eigen::Matrix4f::Identity();  // refined pose of b in a's frame
-    double fitness = -1.0;                             // mean squared inlier distance [m^2]
+    double fitness = -1.0;                                // mean squared inlier distance [m^2]
     bool converged = false;
+    double inlier_fraction = 0.0;  // source points within max_correspondence_m after ICP
 };
 
 // Aligns b's ICP cloud (source) to a's (target) starting from T_a_b_init.

@@ -56,10 +56,14 @@ PairResult finish(PairResult r, MatchStatus status, std::string reason,
 
 const char* to_string(MatchStatus status) {
     switch (status) {
-        case MatchStatus::kOk: return "OK";
-        case MatchStatus::kNoMatch: return "NO_MATCH";
-        case MatchStatus::kFailed: return "FAILED";
-        case MatchStatus::kTimeout: return "TIMEOUT";
+        case MatchStatus::kOk:
+            return "OK";
+        case MatchStatus::kNoMatch:
+            return "NO_MATCH";
+        case MatchStatus::kFailed:
+            return "FAILED";
+        case MatchStatus::kTimeout:
+            return "TIMEOUT";
     }
     return "?";
 }
@@ -78,10 +82,10 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     for (const auto* f : {&a, &b}) {
         if (f->status != FeatureStatus::kOk) {
             const char* which = f == &a ? "submap a: " : "submap b: ";
-            return finish(r,
-                          f->status == FeatureStatus::kTimeout ? MatchStatus::kTimeout
-                                                               : MatchStatus::kFailed,
-                          which + f->reason, t0);
+            return finish(
+                r,
+                f->status == FeatureStatus::kTimeout ? MatchStatus::kTimeout : MatchStatus::kFailed,
+                which + f->reason, t0);
         }
     }
     r.keypoints_a = a.num_keypoints();
@@ -133,7 +137,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     }
     const double ransac_thr =
         settings.ransac_inlier_threshold_m > 0 ? settings.ransac_inlier_threshold_m : params.v_K;
-    const auto ransac = ransac_rigid(pa, pb, ransac_thr, settings.ransac_iterations, seed, deadline);
+    const auto ransac =
+        ransac_rigid(pa, pb, ransac_thr, settings.ransac_iterations, seed, deadline);
     if (ransac.timed_out) return finish(r, MatchStatus::kTimeout, "pair time limit in RANSAC", t0);
     r.ransac_inliers = static_cast<int>(ransac.inliers.size());
     if (!ransac.ok) return finish(r, MatchStatus::kNoMatch, "RANSAC found no rigid transform", t0);
@@ -141,20 +146,24 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     r.grouping_s = seconds_since(t_group);
     const auto t_icp = std::chrono::steady_clock::now();
     if (settings.icp_enabled) {
-        const double max_corr =
-            settings.icp_max_correspondence_m > 0 ? settings.icp_max_correspondence_m
-                                                  : 2.0 * params.v_K;
+        const double max_corr = settings.icp_max_correspondence_m > 0
+                                    ? settings.icp_max_correspondence_m
+                                    : 2.0 * params.v_K;
         const auto icp = refine_icp(a, b, T, max_corr, settings.icp_max_iterations);
         if (icp.ok) {
             T = icp.T_a_b;
             r.icp_fitness = icp.fitness;
+            r.icp_inlier_fraction = icp.inlier_fraction;
         }
     }
     r.icp_s = seconds_since(t_icp);
     if (deadline.expired()) return finish(r, MatchStatus::kTimeout, "pair time limit in ICP", t0);
     r.T_a_b = T.cast<double>();
 
-    // 10. Decision: a transform was found; optional roll/pitch plausibility.
+    // 10. Decision: a transform was found; optional overlap and roll/pitch plausibility.
+    if (settings.min_icp_inlier_fraction > 0 && settings.icp_enabled &&
+        r.icp_inlier_fraction < settings.min_icp_inlier_fraction)
+        return finish(r, MatchStatus::kNoMatch, "too little overlap after ICP", t0);
     if (settings.max_roll_pitch_rad > 0) {
         const Eigen::Matrix3d R = r.T_a_b.topLeftCorner<3, 3>();
         const double roll = std::atan2(R(2, 1), R(2, 2));
@@ -183,7 +192,8 @@ std::shared_ptr<const SubmapFeatures> Matcher::features(const dataset::Submap& s
     const MatcherParams q = quantize_feature_params(params, quantum);
     const std::string key = feature_key(submap, q, settings_, quantum);
     return cache_.get_or_compute(key, [&] {
-        const Deadline d = Deadline::earliest(deadline, Deadline::in(settings_.submap_time_limit_s));
+        const Deadline d =
+            Deadline::earliest(deadline, Deadline::in(settings_.submap_time_limit_s));
         return compute_features(submap, q, settings_, d);
     });
 }
@@ -205,8 +215,7 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<dataset::Submap>&
 
 std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Submap*>& submaps,
                                              const std::vector<std::pair<int, int>>& pairs,
-                                             const MatcherParams& params,
-                                             EvaluationStats* stats) {
+                                             const MatcherParams& params, EvaluationStats* stats) {
     const auto t_start = std::chrono::steady_clock::now();
     const Deadline total = Deadline::in(settings_.total_time_limit_s);
     const auto cache_before = cache_.stats();
@@ -234,7 +243,8 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
             feats[static_cast<std::size_t>(i)] = f;
             return;
         }
-        feats[static_cast<std::size_t>(i)] = features(*submaps[static_cast<std::size_t>(i)], params, total);
+        feats[static_cast<std::size_t>(i)] =
+            features(*submaps[static_cast<std::size_t>(i)], params, total);
     });
     const auto t_features = std::chrono::steady_clock::now();
 

@@ -25,7 +25,7 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
 std::uint64_t pair_seed(std::uint64_t seed, const std::string& id_a, const std::string& id_b);
 
 struct EvaluationStats {
-    int submaps = 0;                 // distinct submaps whose features were requested
+    int submaps = 0;  // distinct submaps whose features were requested
     int pairs = 0;
     double feature_wall_s = 0.0;     // per-submap stage (including cache hits)
     double pair_wall_s = 0.0;        // pair stage
@@ -35,7 +35,7 @@ struct EvaluationStats {
 };
 
 class Matcher {
-public:
+  public:
     explicit Matcher(MatcherSettings settings = {}, FeatureCacheOptions cache_options = {});
 
     const MatcherSettings& settings() const { return settings_; }
@@ -62,7 +62,7 @@ public:
                                         const MatcherParams& params,
                                         EvaluationStats* stats = nullptr);
 
-private:
+  private:
     int thread_count() const;
 
     MatcherSettings settings_;

@@ -25,9 +25,9 @@ MatcherParams from_named_values(const std::map<std::string, double>& values) {
 }
 
 std::map<std::string, double> to_named_values(const MatcherParams& p) {
-    return {{"r_N", p.r_N},  {"v_K", p.v_K},         {"t_K", p.t_K},
-            {"r_D", p.r_D},  {"n_C", double(p.n_C)}, {"t_C", p.t_C},
-            {"r_LRF", p.r_LRF}, {"v_TF", p.v_TF},    {"n_TF", double(p.n_TF)}};
+    return {{"r_N", p.r_N},     {"v_K", p.v_K},         {"t_K", p.t_K},
+            {"r_D", p.r_D},     {"n_C", double(p.n_C)}, {"t_C", p.t_C},
+            {"r_LRF", p.r_LRF}, {"v_TF", p.v_TF},       {"n_TF", double(p.n_TF)}};
 }
 
 int clamp_to_bounds(MatcherParams& p) {
@@ -59,7 +59,7 @@ std::string feature_settings_fingerprint(const MatcherSettings& s) {
     os << s.outlier_removal << '/' << s.outlier_mean_k << '/' << s.outlier_stddev_mul << '/'
        << s.surface_points_per_radius << '/' << s.unknown_samples_per_diameter << '/'
        << s.viewpoint_x << ',' << s.viewpoint_y << ',' << s.viewpoint_z << '/' << s.icp_voxel_m
-       << '/' << s.min_points << '/' << s.min_keypoints;
+       << '/' << s.min_points << '/' << s.min_keypoints << '/' << static_cast<int>(s.lrf_method);
     return os.str();
 }
 

@@ -74,6 +74,8 @@ std::vector<Assignment> Scheduler::schedule(double now) {
         it = now - it->second.last_seen > 3 * options_.lease_s ? workers_.erase(it) : std::next(it);
     }
     std::vector<Assignment> out;
+    // With every slot taken nothing can be assigned: skip the scan of the queue.
+    if (queue_.empty() || free_slots() == 0) return out;
     std::deque<std::string> waiting;
     while (!queue_.empty()) {
         const std::string task = queue_.front();

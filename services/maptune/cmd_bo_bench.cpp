@@ -3,6 +3,7 @@
 // bo_bench executable.
 #ifdef MAPTUNE_HAVE_BO
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -25,6 +26,9 @@ struct BoBenchOptions {
     int first_seed = 0;
     double kappa = 5.0;
     int candidates = 2000;
+    double refit_growth = 0.05;
+    int fit_random_starts = 2;
+    std::string warping = "none";
     bool timing = false;
     bool no_regret = false;
     std::string json;
@@ -33,6 +37,7 @@ struct BoBenchOptions {
 };
 
 std::string fmt(double v, const char* spec = "%.3g") {
+    if (std::isnan(v)) return "-";  // checkpoint beyond the budget
     char buf[64];
     std::snprintf(buf, sizeof(buf), spec, v);
     return buf;
@@ -43,9 +48,9 @@ int run_bo_bench(const BoBenchOptions& o) {
     report["regret"] = nlohmann::json::array();
     report["timing"] = nlohmann::json::array();
     Table regret_table{{"function", "acquisition", "q", "seeds", "regret@25", "regret@50",
-                        "regret@100", "ask_ms_median", "ask_ms_max"},
+                        "regret@100", "final_p90", "final_max", "ask_ms_median", "ask_ms_max"},
                        {},
-                       {false, false, true, true, true, true, true, true, true}};
+                       {false, false, true, true, true, true, true, true, true, true, true}};
     Table curves{{"function", "acquisition", "q", "evaluation", "median_regret"},
                  {},
                  {false, false, true, true, true}};
@@ -60,6 +65,10 @@ int run_bo_bench(const BoBenchOptions& o) {
                     options.acquisition = *acq;
                     options.ucb_kappa = o.kappa;
                     options.candidates = o.candidates;
+                    options.refit_growth = o.refit_growth;
+                    options.warping =
+                        o.warping == "copula" ? bo::OutputWarping::copula : bo::OutputWarping::none;
+                    options.gp.fit.random_starts = o.fit_random_starts;
                     std::vector<bo::RegretRun> runs;
                     for (int s = 0; s < o.seeds; ++s) {
                         runs.push_back(
@@ -74,6 +83,8 @@ int run_bo_bench(const BoBenchOptions& o) {
                     std::vector<std::string> row{name, acq_name, std::to_string(q),
                                                  std::to_string(o.seeds)};
                     for (double r : sm.median_regret) row.push_back(fmt(r, "%.3g"));
+                    row.push_back(fmt(sm.final_p90, "%.3g"));
+                    row.push_back(fmt(sm.final_max, "%.3g"));
                     row.push_back(fmt(sm.median_ask_ms, "%.1f"));
                     row.push_back(fmt(sm.max_ask_ms, "%.1f"));
                     regret_table.rows.push_back(row);
@@ -90,6 +101,8 @@ int run_bo_bench(const BoBenchOptions& o) {
                                                 {"checkpoints", checkpoints},
                                                 {"median_regret", sm.median_regret},
                                                 {"median_curve", sm.median_curve},
+                                                {"final_regret_p90", sm.final_p90},
+                                                {"final_regret_max", sm.final_max},
                                                 {"ask_ms_median", sm.median_ask_ms},
                                                 {"ask_ms_max", sm.max_ask_ms}});
                 }
@@ -195,6 +208,17 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--candidates", opt->candidates,
                     "quasi-random acquisition candidates per proposal, 10..100000 (default: 2000)")
         ->check(CLI::Range(10, 100000));
+    cmd->add_option(
+           "--refit-growth", opt->refit_growth,
+           "refit GP hyperparameters when the observations grew by this fraction, 0..1; 0 = "
+           "every tell (default: 0.05)")
+        ->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--fit-random-starts", opt->fit_random_starts,
+                    "random L-BFGS-B starts of each hyperparameter fit, 0..20 (default: 2)")
+        ->check(CLI::Range(0, 20));
+    cmd->add_option("--warping", opt->warping,
+                    "output warping before the GP: none | copula (default: none)")
+        ->check(CLI::IsMember({"none", "copula"}));
     cmd->add_flag("--timing", opt->timing,
                   "also time ask at n = 100 and 1000 (9-D) and the GP (fit, append, mean+variance "
                   "at 10000 points) for both Cholesky backends (default: off)");

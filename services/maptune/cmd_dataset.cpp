@@ -1,3 +1,4 @@
+#ifdef MAPTUNE_HAVE_DATASET
 // `maptune dataset generate|info|import|render`: a thin front-end over libs/dataset.
 #include <nlohmann/json.hpp>
 
@@ -262,3 +263,4 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
 }
 
 }  // namespace maptune::cli
+#endif

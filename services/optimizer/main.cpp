@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "dds_options.hpp"
+#include "params/yaml_util.hpp"
 #include "optimizer_service.hpp"
 #include "runtime.hpp"
 

@@ -50,6 +50,15 @@ TEST(OptimizerTest, FindsBraninMinimum) {
     EXPECT_LT(opt.best()->value - fn.minimum, 0.05);
 }
 
+TEST(OptimizerTest, CopulaWarpingRunsAndImproves) {
+    const TestFunction fn = branin();
+    OptimizerOptions o = fast_options(11);
+    o.warping = OutputWarping::copula;
+    Optimizer opt(fn.space, o);
+    run(opt, fn, 30, 2);
+    EXPECT_LT(opt.best()->value - fn.minimum, 1.0);
+}
+
 TEST(OptimizerTest, StartPointsComeFirstThenDesignThenModel) {
     const TestFunction fn = hartmann6();
     Optimizer opt(fn.space, fast_options(2));
@@ -183,6 +192,31 @@ TEST(OptimizerTest, MixedIntegerLogSpaceProposalsStayValid) {
         }
     }
     EXPECT_GT(opt.best()->value, -0.5);
+}
+
+}  // namespace
+}  // namespace maptune::bo
+
+namespace maptune::bo {
+namespace {
+
+TEST(OptimizerTest, PredictedBestIsTheObservationWithTheHighestPosteriorMean) {
+    // Maximize a smooth 1-D bump; noise-free observations: the model agrees with the data.
+    Optimizer opt({{"x", 0.0, 1.0}}, OptimizerOptions{});
+    EXPECT_FALSE(opt.predicted_best().has_value());
+    for (int i = 0; i < 12; ++i) {
+        const auto p = opt.ask(1).front();
+        const double x = p.values[0];
+        opt.tell(p.id, std::exp(-50 * (x - 0.3) * (x - 0.3)));
+    }
+    const auto pb = opt.predicted_best();
+    ASSERT_TRUE(pb.has_value());
+    const auto best = opt.best();
+    ASSERT_TRUE(best.has_value());
+    EXPECT_NEAR(pb->values[0], best->values[0], 0.05);
+    EXPECT_NEAR(pb->mean, best->value, 0.05);
+    EXPECT_GE(pb->std, 0.0);
+    EXPECT_LT(pb->std, 0.2);
 }
 
 }  // namespace

@@ -29,7 +29,7 @@ using namespace std::chrono_literals;
 
 int random_domain() {
     std::random_device rd;
-    return std::uniform_int_distribution<int>(1, 200)(rd)  // below 232: room for 100 participant ids;
+    return std::uniform_int_distribution<int>(1, 200)(rd);  // below 232: room for 100 participant ids
 }
 
 // Polls `pred` until true or `timeout`.

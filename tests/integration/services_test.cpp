@@ -207,19 +207,19 @@ TEST_F(ServicesTest, KilledWorkerShardIsReassignedAndTheObservationIsUnchanged) 
 
 TEST_F(ServicesTest, KilledSampleDbRestartsWithoutLosingObservations) {
     dataset_server();
-    Process* db = &sample_db();
+    Process* db_process = &sample_db();
     worker("w1", "0.02");
     worker("w2", "0.02");
     Process& opt = optimizer(experiment(12));
     ASSERT_TRUE(poll([&] { return trials() >= 4; }, 120)) << opt.output();
-    db->kill_hard();
+    db_process->kill_hard();
     std::size_t before = 0;
     {
         store::ObservationStore store(this->db());
         before = store.count();
     }
     EXPECT_GE(before, 4u);
-    db = &sample_db();  // restarted on the same store
+    db_process = &sample_db();  // restarted on the same store
     ASSERT_EQ(opt.wait(240), 0) << opt.output();
     EXPECT_EQ(trials(), 12u);
     store::ObservationStore store(db());

@@ -61,9 +61,9 @@ TEST_P(BunnyPair, RegistersWithinOneDegreeAndTwoPercent) {
     cache.key_quantum = 1e-4;  // object scale: 2 decimals of a metre would merge all radii
     Matcher m(bunny_settings(), cache);
     const auto r = m.match(a, b, bunny_params());
-    ASSERT_EQ(r.status, MatchStatus::kOk) << r.reason << " kp=" << r.keypoints_a << "/"
-                                          << r.keypoints_b << " corr=" << r.correspondences
-                                          << " groups=" << r.groups;
+    ASSERT_EQ(r.status, MatchStatus::kOk)
+        << r.reason << " kp=" << r.keypoints_a << "/" << r.keypoints_b
+        << " corr=" << r.correspondences << " groups=" << r.groups;
     const Eigen::Matrix3d dR =
         T_ref.topLeftCorner<3, 3>().transpose() * r.T_a_b.topLeftCorner<3, 3>();
     const double rot_deg = Eigen::AngleAxisd(dR).angle() * 180.0 / M_PI;

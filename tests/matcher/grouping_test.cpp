@@ -10,8 +10,8 @@ namespace {
 
 Eigen::Isometry3f some_transform() {
     Eigen::Isometry3f T = Eigen::Isometry3f::Identity();
-    T.linear() = (Eigen::AngleAxisf(0.7f, Eigen::Vector3f(0.2f, 0.3f, 1.f).normalized()))
-                     .toRotationMatrix();
+    T.linear() =
+        (Eigen::AngleAxisf(0.7f, Eigen::Vector3f(0.2f, 0.3f, 1.f).normalized())).toRotationMatrix();
     T.translation() = Eigen::Vector3f(1.0f, -2.0f, 0.5f);
     return T;
 }
@@ -73,7 +73,7 @@ TEST(Hough, ConsistentCorrespondencesShareOneBin) {
         const Eigen::Matrix3f Rb =
             Eigen::AngleAxisf(u(rng), Eigen::Vector3f(u(rng), u(rng), 1.f).normalized())
                 .toRotationMatrix();
-        b.lrfs.push_back(Rb);                          // rows = axes in b
+        b.lrfs.push_back(Rb);                           // rows = axes in b
         a.lrfs.push_back(Rb * T.linear().transpose());  // same axes expressed in a
         corrs.push_back({i, i, 0.1f});
     }

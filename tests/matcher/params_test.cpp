@@ -1,15 +1,15 @@
+#include <gtest/gtest.h>
+
 #include "matcher/feature_cache.hpp"
 #include "matcher/matcher_params.hpp"
-
-#include <gtest/gtest.h>
 
 namespace maptune::matcher {
 namespace {
 
 TEST(MatcherParams, DefaultsAreBaseline) {
     const auto m = to_named_values(MatcherParams{});
-    const std::map<std::string, double> baseline{{"r_N", 0.2}, {"v_K", 0.1},   {"t_K", 1.0},
-                                                 {"r_D", 0.2}, {"n_C", 3},     {"t_C", 0.5},
+    const std::map<std::string, double> baseline{{"r_N", 0.2},   {"v_K", 0.1},  {"t_K", 1.0},
+                                                 {"r_D", 0.2},   {"n_C", 3},    {"t_C", 0.5},
                                                  {"r_LRF", 0.2}, {"v_TF", 0.5}, {"n_TF", 8}};
     EXPECT_EQ(m, baseline);
     EXPECT_EQ(parameter_names().size(), 9u);
@@ -17,8 +17,8 @@ TEST(MatcherParams, DefaultsAreBaseline) {
 }
 
 TEST(MatcherParams, RoundTripAndIntegerRounding) {
-    const std::map<std::string, double> x9d{{"r_N", 0.1}, {"v_K", 0.05},  {"t_K", 1.0},
-                                            {"r_D", 2.0}, {"n_C", 9.6},   {"t_C", 1.0},
+    const std::map<std::string, double> x9d{{"r_N", 0.1},   {"v_K", 0.05}, {"t_K", 1.0},
+                                            {"r_D", 2.0},   {"n_C", 9.6},  {"t_C", 1.0},
                                             {"r_LRF", 0.1}, {"v_TF", 0.1}, {"n_TF", 63.2}};
     const auto p = from_named_values(x9d);
     EXPECT_EQ(p.n_C, 10);

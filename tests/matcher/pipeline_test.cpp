@@ -24,14 +24,16 @@ Eigen::Isometry3f pose(float yaw, float x, float y) {
 MatcherSettings fast_settings() {
     MatcherSettings s;
     s.threads = 2;
+    s.icp_voxel_m = 0.05;  // the synthetic scene is sampled at 5 cm
     return s;
 }
 
 class ScenePair : public ::testing::Test {
-protected:
+  protected:
     static void SetUpTestSuite() {
         a_ = new dataset::Submap(make_scene_submap("scene/a", 0.f, 4.5f, 6.f, pose(0.f, 0.f, 0.f)));
-        b_ = new dataset::Submap(make_scene_submap("scene/b", 1.5f, 6.f, 6.f, pose(0.5f, 2.f, 1.f)));
+        b_ =
+            new dataset::Submap(make_scene_submap("scene/b", 1.5f, 6.f, 6.f, pose(0.5f, 2.f, 1.f)));
     }
     static void TearDownTestSuite() {
         delete a_;
@@ -49,14 +51,16 @@ dataset::Submap* ScenePair::b_ = nullptr;
 TEST_F(ScenePair, BaselineMatchesWithSmallError) {
     Matcher m(fast_settings());
     const auto r = m.match(*a_, *b_, MatcherParams{});
-    ASSERT_EQ(r.status, MatchStatus::kOk) << r.reason << " corr=" << r.correspondences
-                                          << " groups=" << r.groups;
+    ASSERT_EQ(r.status, MatchStatus::kOk)
+        << r.reason << " corr=" << r.correspondences << " groups=" << r.groups;
     EXPECT_TRUE(r.matched);
     EXPECT_LT(rotation_error_deg(r.T_a_b, reference()), 1.0);
     EXPECT_LT((r.T_a_b.topRightCorner<3, 1>() - reference().topRightCorner<3, 1>()).norm(), 0.05)
         << "group=" << r.group_size << " inliers=" << r.ransac_inliers << " groups=" << r.groups
         << " corr=" << r.correspondences << " kp=" << r.keypoints_a << "/" << r.keypoints_b
-        << " icp=" << r.icp_fitness << "\n" << r.T_a_b << "\nref\n" << reference();
+        << " icp=" << r.icp_fitness << "\n"
+        << r.T_a_b << "\nref\n"
+        << reference();
 }
 
 TEST_F(ScenePair, DeterministicGivenSeed) {

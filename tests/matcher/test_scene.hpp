@@ -22,7 +22,8 @@ inline std::vector<Rock> make_rocks(unsigned seed, int count, float extent, floa
     std::vector<Rock> rocks;
     for (int i = 0; i < count; ++i) {
         Rock k;
-        k.radii = Eigen::Vector3f(0.15f + 0.35f * u(rng), 0.15f + 0.35f * u(rng), 0.1f + 0.3f * u(rng));
+        k.radii =
+            Eigen::Vector3f(0.15f + 0.35f * u(rng), 0.15f + 0.35f * u(rng), 0.1f + 0.3f * u(rng));
         k.center = Eigen::Vector3f(extent * u(rng), extent_y * u(rng), 0.f);
         k.r = static_cast<std::uint8_t>(60 + 190 * u(rng));
         k.g = static_cast<std::uint8_t>(60 + 190 * u(rng));
@@ -61,7 +62,8 @@ inline dataset::Submap make_scene_submap(const std::string& id, float x0, float 
         for (float y = 0; y <= extent_y; y += spacing) {
             bool under_rock = false;
             for (const auto& k : rocks) {
-                const float dx = (x - k.center.x()) / k.radii.x(), dy = (y - k.center.y()) / k.radii.y();
+                const float dx = (x - k.center.x()) / k.radii.x(),
+                            dy = (y - k.center.y()) / k.radii.y();
                 if (dx * dx + dy * dy < 1.f) {
                     const float z = k.radii.z() * std::sqrt(1.f - dx * dx - dy * dy);
                     add({x, y, z}, k.r, k.g, k.b, z > 0.03f);
@@ -70,8 +72,8 @@ inline dataset::Submap make_scene_submap(const std::string& id, float x0, float 
                 }
             }
             if (!under_rock) {
-                const auto c = static_cast<std::uint8_t>(
-                    100 + 40 * std::sin(3.f * x) * std::cos(2.f * y));
+                const auto c =
+                    static_cast<std::uint8_t>(100 + 40 * std::sin(3.f * x) * std::cos(2.f * y));
                 add({x, y, 0.f}, c, c, static_cast<std::uint8_t>(c - 20), false);
             }
         }

@@ -1,0 +1,85 @@
+#include "evaluation/evaluation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "dataset/simulator.hpp"
+
+namespace maptune::evaluation {
+namespace {
+
+namespace fs = std::filesystem;
+
+class EvaluationTest : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        char tmpl[] = "/tmp/maptune_evaluation_test_XXXXXX";
+        ASSERT_NE(mkdtemp(tmpl), nullptr);
+        root_ = tmpl;
+        auto c = dataset::sim_preset("lab-tiny");
+        c.runs = 1;
+        c.submaps = 3;
+        dataset::generate_dataset(c, root_ / "ds");
+    }
+    static void TearDownTestSuite() { fs::remove_all(root_); }
+    static params::ParameterSpace space() {
+        return params::ParameterSpace::load(std::string(MAPTUNE_SOURCE_DIR) + "/configs/spaces/lru_matcher.yaml");
+    }
+    static fs::path root_;
+};
+fs::path EvaluationTest::root_;
+
+TEST_F(EvaluationTest, EvaluatesEveryPairOfTheViewWithStatuses) {
+    const auto ds = dataset::Dataset::open(root_ / "ds");
+    matcher::MatcherSettings settings;
+    settings.threads = 2;
+    Evaluator ev(ds, space(), settings);
+    matcher::EvaluationStats stats;
+    const auto obs = ev.evaluate(dataset::View::complete, space().defaults(), &stats);
+    ASSERT_EQ(obs.pairs.size(), 3u);
+    EXPECT_EQ(obs.key.view, "complete");
+    EXPECT_EQ(obs.key.dataset_id, ds.manifest().id);
+    EXPECT_EQ(obs.key.params_key, space().canonical_key(space().defaults()));
+    EXPECT_EQ(obs.pairs[0].pair_id, "run00/submap000|run00/submap001");
+    for (const auto& p : obs.pairs) {
+        if (p.status == store::PairStatus::kFailed || p.status == store::PairStatus::kTimeout) {
+            EXPECT_FALSE(p.reason.empty());
+        }
+        EXPECT_EQ(p.matched, p.status == store::PairStatus::kOk);
+    }
+    EXPECT_GT(obs.wall_seconds, 0);
+    EXPECT_EQ(stats.pairs, 3);
+}
+
+TEST_F(EvaluationTest, CachedEvaluationStoresOnceAndAnswersFromTheStore) {
+    const auto ds = dataset::Dataset::open(root_ / "ds");
+    store::ObservationStore db((root_ / "obs.db").string());
+    Evaluator ev(ds, space());
+    auto set = space().defaults();
+    set.set("t_K", 0.951);  // rounds to 0.95
+    bool from_store = true;
+    const auto first = ev.evaluate_cached(&db, dataset::View::subsequent, set, &from_store);
+    EXPECT_FALSE(from_store);
+    EXPECT_EQ(db.count(), 1u);
+    set.set("t_K", 0.949);  // same rounded key
+    const auto second = ev.evaluate_cached(&db, dataset::View::subsequent, set, &from_store);
+    EXPECT_TRUE(from_store);
+    EXPECT_EQ(db.count(), 1u);
+    ASSERT_EQ(first.pairs.size(), second.pairs.size());
+    for (std::size_t i = 0; i < first.pairs.size(); ++i) {
+        EXPECT_EQ(first.pairs[i].T_a_b_est, second.pairs[i].T_a_b_est);
+    }
+}
+
+TEST_F(EvaluationTest, MatcherSettingsArePartOfTheKey) {
+    matcher::MatcherSettings a, b;
+    b.ransac_iterations = a.ransac_iterations + 1;
+    EXPECT_NE(matcher_version(a), matcher_version(b));
+    matcher::MatcherSettings c = a;
+    c.threads = 7;  // does not change results
+    EXPECT_EQ(matcher_version(a), matcher_version(c));
+}
+
+}  // namespace
+}  // namespace maptune::evaluation
