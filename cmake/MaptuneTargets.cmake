@@ -31,9 +31,12 @@ endfunction()
 
 # maptune_test(NAME SOURCES ... DEPS ...): a GoogleTest executable registered with ctest.
 function(maptune_test name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  # SERIAL: ctest runs these tests alone (gtest_discover_tests fills the test list only at
+  # test time, so set_tests_properties on it at configure time would set nothing).
+  cmake_parse_arguments(ARG "SERIAL" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main GTest::gmock)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests/common)
   target_compile_definitions(${name} PRIVATE
     MAPTUNE_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     MAPTUNE_BINARY_DIR="${PROJECT_BINARY_DIR}")
@@ -41,6 +44,13 @@ function(maptune_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-                       PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+  # Empty values would shift gtest_discover_tests' property list: add only what is set.
+  set(props TIMEOUT ${ARG_TIMEOUT})
+  if(ARG_LABELS)
+    list(APPEND props LABELS "${ARG_LABELS}")
+  endif()
+  if(ARG_SERIAL)
+    list(APPEND props RUN_SERIAL TRUE)
+  endif()
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${props})
 endfunction()

@@ -96,16 +96,19 @@ std::vector<Eigen::Vector3f> detect_obstacles_height(const std::vector<ColoredPo
     for (const auto& p : cloud) {
         const std::int64_t ix = cell_index(p.x, s.cell), iy = cell_index(p.y, s.cell);
         bool obstacle = false;
+        float ground = p.z;
         // Step or steep slope: this point stands clearly above some neighbouring ground.
-        for (int dx = -1; dx <= 1 && !obstacle; ++dx) {
-            for (int dy = -1; dy <= 1 && !obstacle; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            for (int dy = -1; dy <= 1; ++dy) {
                 auto it = grid.find(key2(ix + dx, iy + dy));
                 if (it == grid.end()) continue;
+                ground = std::min(ground, it->second.zmin);
                 const float dist = s.cell * std::sqrt(float(dx * dx + dy * dy)) + s.cell;
                 const float rise = p.z - it->second.zmin;
                 if (rise > s.step || rise > slope * dist + 0.5f * s.cell * slope) obstacle = true;
             }
         }
+        if (obstacle && s.max_height > 0 && p.z - ground > s.max_height) continue;
         // Negative edge (crater rim, drop-off): a gap right next to the point, and beyond
         // it ground that lies much lower (the far wall of the hole).
         if (!obstacle) {

@@ -29,6 +29,10 @@ struct HeightObstacleSettings {
     float step = 0.12f;        // height step that a wheel cannot climb [m]
     float max_slope_deg = 30;  // steeper local slope is an obstacle
     float negative_drop = 0.2f;  // a cell next to a gap, beyond which the ground lies this much lower [m]
+    // Only points up to this height above the lowest neighbouring ground are reported (<= 0:
+    // no limit). A wall is one obstacle for navigation; its upper metres add thousands of
+    // look-alike points and no information about where the obstacle is.
+    float max_height = 0.0f;
 };
 std::vector<Eigen::Vector3f> detect_obstacles_height(const std::vector<ColoredPoint>& cloud,
                                                      const HeightObstacleSettings& s = {});

@@ -140,7 +140,14 @@ std::optional<CompletedJob> Scheduler::complete(const std::string& task_id,
     Shard& shard = it->second;
     // A worker that lost its lease may still deliver, unless another worker holds it now.
     if (shard.worker != worker_id && !shard.worker.empty()) return std::nullopt;
-    if (results.size() != shard.end - shard.begin) return std::nullopt;
+    if (results.size() != shard.end - shard.begin) {
+        // A wrong-sized answer is a failed attempt, not a lost one: otherwise the shard would
+        // stay assigned to a live worker forever.
+        return fail(task_id, worker_id,
+                    "returned " + std::to_string(results.size()) + " pair results for " +
+                        std::to_string(shard.end - shard.begin) + " pairs",
+                    now);
+    }
     if (auto w = workers_.find(worker_id); w != workers_.end()) w->second.last_seen = now;
     Job& job = jobs_.at(shard.job_key);
     for (std::size_t i = 0; i < results.size(); ++i) {

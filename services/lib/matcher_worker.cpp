@@ -30,6 +30,7 @@ MatcherWorker::~MatcherWorker() {
         std::lock_guard<std::mutex> lock(mutex_);
         stop_ = true;
         cv_.notify_all();
+        stop_cv_.notify_all();
     }
     for (auto& t : threads_) t.join();
 }
@@ -60,7 +61,7 @@ void MatcherWorker::heartbeat_loop() {
         lock.unlock();
         publish_status();
         lock.lock();
-        cv_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [this] { return stop_; });
+        stop_cv_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [this] { return stop_; });
     }
 }
 

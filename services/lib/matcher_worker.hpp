@@ -42,7 +42,9 @@ private:
     dds::Writer<msg::v1::TaskResult> results_;
     dds::Writer<msg::v1::WorkerStatus> status_;
     mutable std::mutex mutex_;
-    std::condition_variable cv_;
+    std::condition_variable cv_;         // task threads: a task arrived, or stop
+    std::condition_variable stop_cv_;    // heartbeat thread: stop (own variable, so notify_one
+                                         // on cv_ can never wake it instead of a task thread)
     std::deque<msg::v1::EvaluationTask> queue_;
     int busy_ = 0;
     bool stop_ = false;

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "dds/participant.hpp"
+#include "fastdds_shm.hpp"
 #include "maptunePubSubTypes.h"
 
 extern char** environ;
@@ -41,17 +42,6 @@ bool wait_until(Pred pred, std::chrono::milliseconds timeout) {
         std::this_thread::sleep_for(5ms);
     }
     return true;
-}
-
-// Shared-memory files of processes that did not shut down cleanly.
-std::set<std::string> shm_files() {
-    std::set<std::string> out;
-    std::error_code ec;
-    for (const auto& e : std::filesystem::directory_iterator("/dev/shm", ec)) {
-        const auto name = e.path().filename().string();
-        if (name.rfind("fastrtps_", 0) == 0 || name.rfind("sem.fastrtps_", 0) == 0) out.insert(name);
-    }
-    return out;
 }
 
 // Local addresses (host byte order) of the UDP sockets this process owns, from /proc.
@@ -148,7 +138,7 @@ TEST(Participant, LatchedTopicGivesALateSubscriberOnlyTheLatestSample) {
 
 TEST(Participant, TalksToAnotherProcessAndThatProcessStopsCleanlyOnSigterm) {
     const int domain = random_domain();
-    const auto shm_before = shm_files();
+    const auto shm_before = maptune::testing::fastdds_shm_files();
     const std::string domain_text = std::to_string(domain);
     char* argv[] = {const_cast<char*>(MAPTUNE_DDS_ECHO), const_cast<char*>(domain_text.c_str()), nullptr};
     pid_t pid = 0;
@@ -203,7 +193,7 @@ TEST(Participant, TalksToAnotherProcessAndThatProcessStopsCleanlyOnSigterm) {
     EXPECT_EQ(WEXITSTATUS(status), 0);
     // A clean shutdown leaves no shared-memory segment behind.
     std::set<std::string> leaked;
-    for (const auto& f : shm_files()) {
+    for (const auto& f : maptune::testing::fastdds_shm_files()) {
         if (!shm_before.count(f)) leaked.insert(f);
     }
     EXPECT_TRUE(leaked.empty()) << "leaked " << *leaked.begin();

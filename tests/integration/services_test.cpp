@@ -14,6 +14,7 @@
 #include "maptunePubSubTypes.h"
 #include "optimizer_service.hpp"
 #include "process.hpp"
+#include "fastdds_shm.hpp"
 #include "runtime.hpp"
 #include "store/observation_store.hpp"
 #include "worker_backend.hpp"
@@ -26,16 +27,6 @@ namespace v1 = msg::v1;
 using testing::Process;
 
 const std::string kSource = MAPTUNE_SOURCE_DIR;
-
-std::set<std::string> shm_files() {
-    std::set<std::string> out;
-    std::error_code ec;
-    for (const auto& e : fs::directory_iterator("/dev/shm", ec)) {
-        const auto n = e.path().filename().string();
-        if (n.find("fastrtps") != std::string::npos) out.insert(n);
-    }
-    return out;
-}
 
 template <class Pred>
 bool poll(Pred pred, double timeout_s) {
@@ -66,14 +57,13 @@ protected:
         dir_ = tmpl;
         std::random_device rd;
         domain_ = std::uniform_int_distribution<int>(1, 200)(rd);
-        shm_before_ = shm_files();
+        shm_before_ = testing::fastdds_shm_files();
     }
     void TearDown() override {
         processes_.clear();  // SIGTERM, then SIGKILL
-        // A SIGKILLed participant leaves its shared-memory files behind: remove ours.
-        for (const auto& f : shm_files()) {
-            if (!shm_before_.count(f)) fs::remove(fs::path("/dev/shm") / f);
-        }
+        // A SIGKILLed participant leaves its shared-memory files behind: remove those no live
+        // process maps (never another running test's).
+        testing::remove_orphaned_fastdds_shm(shm_before_);
         if (HasFailure()) {
             for (const auto& e : fs::directory_iterator(dir_)) {
                 if (e.path().extension() == ".log") {

@@ -174,14 +174,19 @@ TEST(Scheduler, FailedShardsRetryThenReportFailedPairs) {
     }
 }
 
-TEST(Scheduler, IgnoresWrongCountsUnknownTasksAndDuplicates) {
+TEST(Scheduler, WrongCountIsAFailedAttemptUnknownTasksAndDuplicatesAreIgnored) {
     Scheduler s({10.0, 0, 3});
     s.heartbeat(worker("w1"), 0);
     s.submit("k", job(3), "opt", 0);
-    const auto a = s.schedule(0);
+    auto a = s.schedule(0);
     auto short_results = results_for(a[0]);
     short_results.pop_back();
+    // A live worker's wrong-sized answer must not leave the shard assigned forever.
     EXPECT_FALSE(s.complete(a[0].task_id, "w1", short_results, 1).has_value());
+    EXPECT_EQ(s.running_shards(), 0u);
+    a = s.schedule(1);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_EQ(a[0].attempt, 2);
     EXPECT_FALSE(s.complete("t999", "w1", results_for(a[0]), 1).has_value());
     ASSERT_TRUE(s.complete(a[0].task_id, "w1", results_for(a[0]), 1).has_value());
     EXPECT_FALSE(s.complete(a[0].task_id, "w1", results_for(a[0]), 1).has_value());
