@@ -143,15 +143,22 @@ int main(int argc, char** argv) {
         int m = 0, m_overlap = 0, no_match = 0;
         std::map<std::string, int> reasons;
         for (std::size_t i = 0; i < res.size(); ++i) {
-            if (verbose)
+            if (verbose) {
+                const Eigen::Matrix4d ref = view_pairs[i].T_a_b.matrix();
+                const double pe_t = (res[i].T_a_b.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
+                const double pe_r = Eigen::AngleAxisd(Eigen::Matrix3d(ref.topLeftCorner<3, 3>().transpose() *
+                                                                    res[i].T_a_b.topLeftCorner<3, 3>()))
+                                      .angle();
                 std::printf(
-                    "  %s %s: %s (%s) kp %d/%d corr %d groups %d group %d inl %d "
+                    "  %s %s: %s (%s) overlap %.2f e_t %.2f e_r %.1f kp %d/%d corr %d groups %d group %d inl %d "
                     "icp_in %.2f t %.2f s (desc %.2f, group %.2f, icp %.2f)\n",
                     view_pairs[i].id_a.c_str(), view_pairs[i].id_b.c_str(),
-                    to_string(res[i].status), res[i].reason.c_str(), res[i].keypoints_a,
+                    to_string(res[i].status), res[i].reason.c_str(), view_pairs[i].overlap, pe_t,
+                    pe_r * 180 / M_PI, res[i].keypoints_a,
                     res[i].keypoints_b, res[i].correspondences, res[i].groups, res[i].group_size,
                     res[i].ransac_inliers, res[i].icp_inlier_fraction, res[i].duration_s,
                     res[i].descriptor_s, res[i].grouping_s, res[i].icp_s);
+            }
             if (res[i].status == MatchStatus::kNoMatch || res[i].status == MatchStatus::kFailed)
                 ++reasons[res[i].reason.substr(0, 40)];
             no_match += res[i].status == MatchStatus::kNoMatch;

@@ -29,7 +29,8 @@ std::string matcher_version(const matcher::MatcherSettings& s) {
          << s.max_roll_pitch_rad << ',' << s.min_points << ',' << s.min_keypoints << ','
          << s.pair_time_limit_s << ',' << s.submap_time_limit_s << ',' << s.total_time_limit_s
          << ',' << s.seed;
-    return "1-" + dataset::hex64(dataset::fnv1a(text.str())).substr(0, 8);
+    // The prefix counts code changes that alter results (2: ICP convergence epsilons).
+    return "2-" + dataset::hex64(dataset::fnv1a(text.str())).substr(0, 8);
 }
 
 Evaluator::Evaluator(const dataset::Dataset& dataset, const params::ParameterSpace& space,

@@ -70,6 +70,7 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
     struct GenOpts {
         std::string preset, world, out;
         int runs = -1, submaps = -1, threads = 0;
+        double obstacle_max_height = -1;
         std::uint64_t seed = 1;
         bool force = false;
     };
@@ -86,6 +87,10 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
     gen->add_option("--threads", g->threads, "worker threads, 0..256 (0 = all cores); default 0; "
                     "output does not depend on it")->check(CLI::Range(0, 256));
     gen->add_option("--out", g->out, "output dataset directory (must not exist unless --force)")->required();
+    gen->add_option("--obstacle-max-height", g->obstacle_max_height,
+                    "obstacle points only up to this height above the ground [m], 0..10 (0 = no limit); "
+                    "default 0.6")
+        ->check(CLI::Range(0.0, 10.0));
     gen->add_flag("--force", g->force, "replace an existing output directory");
     gen->callback([g, &exit_code]() {
         guarded(exit_code, [&]() {
@@ -100,6 +105,7 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
             }
             if (g->runs > 0) c.runs = g->runs;
             if (g->submaps > 0) c.submaps = g->submaps;
+            if (g->obstacle_max_height >= 0) c.obstacle_max_height_m = g->obstacle_max_height;
             c.seed = g->seed;
             c.threads = g->threads;
             const auto t0 = std::chrono::steady_clock::now();
