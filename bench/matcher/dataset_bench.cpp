@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
     double e_star = 0.4, m_star = -1, total_limit = 3600, icp_voxel = 0.1;
     int board = 0;
     double min_overlap = 0, max_rp = 0;
+    int min_inliers = MatcherSettings{}.min_ransac_inliers;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i], v = argv[i + 1];
         if (k == "--dataset")
@@ -78,6 +79,8 @@ int main(int argc, char** argv) {
             board = std::atoi(v.c_str());
         else if (k == "--min-overlap")
             min_overlap = std::atof(v.c_str());
+        else if (k == "--min-inliers")
+            min_inliers = std::atoi(v.c_str());
         else if (k == "--max-roll-pitch-deg")
             max_rp = std::atof(v.c_str());
         else if (k == "--icp-voxel")
@@ -127,6 +130,7 @@ int main(int argc, char** argv) {
     settings.icp_voxel_m = icp_voxel;
     if (board) settings.lrf_method = LrfMethod::kBoard;
     settings.min_icp_inlier_fraction = min_overlap;
+    settings.min_ransac_inliers = min_inliers;
     settings.max_roll_pitch_rad = max_rp * M_PI / 180.0;
     Matcher matcher(settings);
 

@@ -127,7 +127,19 @@ std::vector<Eigen::Vector3f> detect_obstacles_height(const std::vector<ColoredPo
         }
         if (obstacle) out.emplace_back(p.x, p.y, p.z);
     }
-    return out;
+    if (s.top_surface_cell <= 0) return out;
+    // Highest obstacle point per cell; output in order of first appearance (deterministic).
+    std::unordered_map<std::uint64_t, std::size_t> top;
+    std::vector<Eigen::Vector3f> tops;
+    for (const auto& p : out) {
+        const auto k = key2(cell_index(p.x(), s.top_surface_cell), cell_index(p.y(), s.top_surface_cell));
+        const auto [it, fresh] = top.emplace(k, tops.size());
+        if (fresh)
+            tops.push_back(p);
+        else if (p.z() > tops[it->second].z())
+            tops[it->second] = p;
+    }
+    return tops;
 }
 
 std::vector<Eigen::Vector3f> detect_obstacles_curvature(const std::vector<ColoredPoint>& cloud,

@@ -33,6 +33,11 @@ struct HeightObstacleSettings {
     // no limit). A wall is one obstacle for navigation; its upper metres add thousands of
     // look-alike points and no information about where the obstacle is.
     float max_height = 0.0f;
+    // Report one obstacle point per (x, y) cell of this size, the highest (> 0; 0: every
+    // obstacle point). A grid-map obstacle detector, like the rover's, sees the elevation map:
+    // the top surface of a rock and the top edge of a wall strip, not the wall's whole face —
+    // whose flat, look-alike points would otherwise make most of the keypoints.
+    float top_surface_cell = 0.0f;
 };
 std::vector<Eigen::Vector3f> detect_obstacles_height(const std::vector<ColoredPoint>& cloud,
                                                      const HeightObstacleSettings& s = {});

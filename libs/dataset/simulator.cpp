@@ -721,6 +721,7 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
         hs.step = world.lab() ? 0.1f : 0.15f;
         hs.negative_drop = world.lab() ? 0.15f : 0.25f;
         hs.max_height = static_cast<float>(c.obstacle_max_height_m);
+        if (c.obstacle_top_surface) hs.top_surface_cell = static_cast<float>(c.voxel_m);
         for (const auto& v : detect_obstacles_height(leveled, hs)) s.obstacles.push_back(R_g.transpose() * v);
         s.octree = tree;
         s.T_world_submap_gt = T_w_sub_gt;
@@ -754,6 +755,7 @@ std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overw
     writer.set_meta("image", std::to_string(c.image_width) + "x" + std::to_string(c.image_height));
     writer.set_meta("submap_distance_m", std::to_string(c.submap_distance_m));
     writer.set_meta("obstacle_max_height_m", std::to_string(c.obstacle_max_height_m));
+    writer.set_meta("obstacle_top_surface", c.obstacle_top_surface ? "true" : "false");
     std::atomic<int> next{0}, done{0};
     std::mutex progress_mutex;
     std::exception_ptr error;

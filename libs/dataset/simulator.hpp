@@ -42,6 +42,7 @@ struct SimConfig {
     double octomap_resolution_m = 0.05;
     int octomap_pixel_stride = 2;   // rays used for the OctoMap: every n-th pixel in u and v
     double obstacle_max_height_m = 0.6;  // obstacle points only this high above the ground
+    bool obstacle_top_surface = true;     // one obstacle point per voxel column, the highest
 
     // Odometry noise: std grows with sqrt(distance); multiplied by (1 + 2 |slope|).
     double sigma_x = 0.03;          // [m/sqrt(m)]

@@ -28,7 +28,7 @@ std::string matcher_version(const matcher::MatcherSettings& s) {
          << s.icp_max_correspondence_m << ',' << s.icp_voxel_m << ',' << s.icp_enabled << ','
          << s.max_roll_pitch_rad << ',' << s.min_points << ',' << s.min_keypoints << ','
          << s.pair_time_limit_s << ',' << s.submap_time_limit_s << ',' << s.total_time_limit_s
-         << ',' << s.seed;
+         << ',' << s.seed << ',' << s.min_icp_inlier_fraction << ',' << s.min_ransac_inliers;
     // The prefix counts code changes that alter results (2: ICP convergence epsilons).
     return "2-" + dataset::hex64(dataset::fnv1a(text.str())).substr(0, 8);
 }

@@ -9,9 +9,12 @@
 
 namespace maptune::matcher {
 
+// Normals are set for point-to-plane ICP and zero for point-to-point.
+using IcpPoint = pcl::PointNormal;
+
 struct IcpCloud {
-    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
-    pcl::search::KdTree<pcl::PointXYZ>::Ptr tree;  // built once; ICP reuses it as target tree
+    pcl::PointCloud<IcpPoint>::Ptr cloud;
+    pcl::search::KdTree<IcpPoint>::Ptr tree;  // built once; ICP reuses it as target tree
 };
 
 }  // namespace maptune::matcher

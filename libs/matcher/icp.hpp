@@ -15,9 +15,10 @@ struct IcpResult {
     double inlier_fraction = 0.0;  // source points within max_correspondence_m after ICP
 };
 
-// Aligns b's ICP cloud (source) to a's (target) starting from T_a_b_init.
+// Aligns b's ICP cloud (source) to a's (target) starting from T_a_b_init; point-to-plane
+// needs the clouds' normals (MatcherSettings::icp_point_to_plane when they were computed).
 IcpResult refine_icp(const SubmapFeatures& a, const SubmapFeatures& b,
                      const Eigen::Matrix4f& T_a_b_init, double max_correspondence_m,
-                     int max_iterations);
+                     int max_iterations, bool point_to_plane);
 
 }  // namespace maptune::matcher

@@ -142,6 +142,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     if (ransac.timed_out) return finish(r, MatchStatus::kTimeout, "pair time limit in RANSAC", t0);
     r.ransac_inliers = static_cast<int>(ransac.inliers.size());
     if (!ransac.ok) return finish(r, MatchStatus::kNoMatch, "RANSAC found no rigid transform", t0);
+    if (r.ransac_inliers < settings.min_ransac_inliers)
+        return finish(r, MatchStatus::kNoMatch, "too few RANSAC inliers", t0);
     Eigen::Matrix4f T = ransac.T_a_b;
     r.grouping_s = seconds_since(t_group);
     const auto t_icp = std::chrono::steady_clock::now();
@@ -149,7 +151,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
         const double max_corr = settings.icp_max_correspondence_m > 0
                                     ? settings.icp_max_correspondence_m
                                     : 2.0 * params.v_K;
-        const auto icp = refine_icp(a, b, T, max_corr, settings.icp_max_iterations);
+        const auto icp = refine_icp(a, b, T, max_corr, settings.icp_max_iterations,
+                                    settings.icp_point_to_plane);
         if (icp.ok) {
             T = icp.T_a_b;
             r.icp_fitness = icp.fitness;
@@ -160,7 +163,8 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     if (deadline.expired()) return finish(r, MatchStatus::kTimeout, "pair time limit in ICP", t0);
     r.T_a_b = T.cast<double>();
 
-    // 10. Decision: a transform was found; optional overlap and roll/pitch plausibility.
+    // 10. Decision: a transform was found (consensus checked above, before the costly ICP);
+    // optional overlap and roll/pitch plausibility.
     if (settings.min_icp_inlier_fraction > 0 && settings.icp_enabled &&
         r.icp_inlier_fraction < settings.min_icp_inlier_fraction)
         return finish(r, MatchStatus::kNoMatch, "too little overlap after ICP", t0);

@@ -59,7 +59,8 @@ std::string feature_settings_fingerprint(const MatcherSettings& s) {
     os << s.outlier_removal << '/' << s.outlier_mean_k << '/' << s.outlier_stddev_mul << '/'
        << s.surface_points_per_radius << '/' << s.unknown_samples_per_diameter << '/'
        << s.viewpoint_x << ',' << s.viewpoint_y << ',' << s.viewpoint_z << '/' << s.icp_voxel_m
-       << '/' << s.min_points << '/' << s.min_keypoints << '/' << static_cast<int>(s.lrf_method);
+       << '/' << s.min_points << '/' << s.min_keypoints << '/' << static_cast<int>(s.lrf_method)
+       << '/' << s.icp_point_to_plane;
     return os.str();
 }
 

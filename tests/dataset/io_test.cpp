@@ -205,6 +205,32 @@ TEST(GeometryTest, HeightObstaclesFindStepsNotFloor) {
     EXPECT_TRUE(detect_obstacles_height(ramp).empty());
 }
 
+TEST(GeometryTest, HeightObstaclesTopSurfaceKeepsTheHighestPointPerColumn) {
+    // Floor plus a vertical wall face at x = 1 (points every 4 cm up to 1 m): every wall
+    // point is an obstacle, but a grid-map detector sees one column per cell.
+    auto c = grid_points(-1, 1, -1, 1, 0.04f, [](float, float) { return 0.f; });
+    for (float z = 0.04f; z < 1.0f; z += 0.04f)
+        for (float y = -1; y < 1; y += 0.04f) {
+            ColoredPoint p;
+            p.x = 1.0f; p.y = y; p.z = z;
+            c.push_back(p);
+        }
+    HeightObstacleSettings s;
+    s.max_height = 0.6f;
+    const auto all = detect_obstacles_height(c, s);
+    s.top_surface_cell = 0.04f;
+    const auto tops = detect_obstacles_height(c, s);
+    ASSERT_FALSE(tops.empty());
+    EXPECT_GT(all.size(), 10 * tops.size());
+    // One point per 4 cm column along the wall (50 in y), each the highest below max_height.
+    EXPECT_NEAR(static_cast<double>(tops.size()), 50.0, 2.0);
+    for (const auto& o : tops) {
+        EXPECT_NEAR(o.x(), 1.0f, 1e-4f);
+        EXPECT_GT(o.z(), 0.5f);
+        EXPECT_LE(o.z(), 0.6f + 1e-4f);
+    }
+}
+
 TEST(GeometryTest, HeightObstaclesFindNegativeEdge) {
     // Ground at 0 for x < 0, a hole (no data) for 0..0.3, then ground at -0.5 (a drop-off).
     auto c = grid_points(-1, 1.5f, -1, 1, 0.04f, [](float x, float) { return x < 0 ? 0.f : -0.5f; });

@@ -63,6 +63,23 @@ TEST_F(ScenePair, BaselineMatchesWithSmallError) {
         << reference();
 }
 
+TEST_F(ScenePair, ConsensusCheckTurnsAWeakTransformIntoNoMatch) {
+    MatcherSettings s = fast_settings();
+    Matcher m(s);
+    const auto ok = m.match(*a_, *b_, MatcherParams{});
+    ASSERT_EQ(ok.status, MatchStatus::kOk) << ok.reason;
+    ASSERT_GE(ok.ransac_inliers, s.min_ransac_inliers);
+    // The same pair, demanding one inlier more than RANSAC found: no match, and no ICP ran.
+    s.min_ransac_inliers = ok.ransac_inliers + 1;
+    Matcher strict(s);
+    const auto r = strict.match(*a_, *b_, MatcherParams{});
+    EXPECT_EQ(r.status, MatchStatus::kNoMatch);
+    EXPECT_FALSE(r.matched);
+    EXPECT_EQ(r.reason, "too few RANSAC inliers");
+    EXPECT_EQ(r.ransac_inliers, ok.ransac_inliers);
+    EXPECT_LT(r.icp_fitness, 0.0);
+}
+
 TEST_F(ScenePair, DeterministicGivenSeed) {
     Matcher m1(fast_settings()), m2(fast_settings());
     const auto r1 = m1.match(*a_, *b_, MatcherParams{});
