@@ -49,6 +49,7 @@ int main(int argc, char** argv) {
     int board = 0;
     double min_overlap = 0, max_rp = 0;
     int min_inliers = MatcherSettings{}.min_ransac_inliers;
+    int icp_iter = MatcherSettings{}.icp_max_iterations;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i], v = argv[i + 1];
         if (k == "--dataset")
@@ -83,6 +84,8 @@ int main(int argc, char** argv) {
             min_inliers = std::atoi(v.c_str());
         else if (k == "--max-roll-pitch-deg")
             max_rp = std::atof(v.c_str());
+        else if (k == "--icp-iter")
+            icp_iter = std::atoi(v.c_str());
         else if (k == "--icp-voxel")
             icp_voxel = std::atof(v.c_str());
     }
@@ -131,6 +134,7 @@ int main(int argc, char** argv) {
     if (board) settings.lrf_method = LrfMethod::kBoard;
     settings.min_icp_inlier_fraction = min_overlap;
     settings.min_ransac_inliers = min_inliers;
+    settings.icp_max_iterations = icp_iter;
     settings.max_roll_pitch_rad = max_rp * M_PI / 180.0;
     Matcher matcher(settings);
 

@@ -54,17 +54,19 @@ void dedup(std::vector<Correspondence>& c) {
 
 }  // namespace
 
-std::vector<Correspondence> match_descriptors(const DescriptorMatrix& A, const DescriptorMatrix& B,
-                                              int n_c, double t_c, int block_rows) {
-    std::vector<Correspondence> out;
+NeighbourLists nearest_descriptors(const DescriptorMatrix& A, const DescriptorMatrix& B, int k,
+                                   float min_dot, int block_rows) {
+    NeighbourLists L;
     const int na = static_cast<int>(A.rows()), nb = static_cast<int>(B.rows());
-    if (na == 0 || nb == 0 || n_c <= 0 || A.cols() != B.cols() || !(t_c > 0)) return out;
-    n_c = std::min(n_c, 16);
-    // d < t_c  <=>  dot > 1 - t_c^2 (d is monotone in the dot product).
-    const float min_dot = static_cast<float>(1.0 - std::min(1.0, t_c) * std::min(1.0, t_c));
-    const bool all_pass = t_c > 1.0;  // every pair qualifies (d <= 1)
+    L.k = std::clamp(k, 0, NeighbourLists::kMaxK);
+    if (na == 0 || nb == 0 || L.k == 0 || A.cols() != B.cols()) return L;
+    L.rows = na;
+    L.cols = nb;
+    L.row_count.assign(static_cast<std::size_t>(na), 0);
+    L.row_index.assign(static_cast<std::size_t>(na) * L.k, 0);
+    L.row_dot.assign(static_cast<std::size_t>(na) * L.k, 0.f);
     std::vector<TopN> col_best(static_cast<std::size_t>(nb));
-    for (auto& t : col_best) t.reset(n_c);
+    for (auto& t : col_best) t.reset(L.k);
     // Contiguous copy of each column's current worst kept score: the hot loop rejects almost
     // every entry by one compare against it without touching the TopN arrays.
     std::vector<float> col_worst(static_cast<std::size_t>(nb), -2.0f);
@@ -75,13 +77,12 @@ std::vector<Correspondence> match_descriptors(const DescriptorMatrix& A, const D
         const int rows = std::min(block_rows, na - r0);
         S.noalias() = A.middleRows(r0, rows) * B.transpose();
         for (int i = 0; i < rows; ++i) {
-            row_best.reset(n_c);
+            row_best.reset(L.k);
             const float* s = S.data() + static_cast<std::ptrdiff_t>(i) * nb;
             float row_worst = -2.0f;
-            const float floor_dot = all_pass ? -2.0f : min_dot;
             for (int j = 0; j < nb; ++j) {
                 const float v = s[j];
-                if (!(v > floor_dot)) continue;
+                if (!(v > min_dot)) continue;
                 // >= keeps tie semantics (smaller index wins) inside TopN::push.
                 if (v >= row_worst) {
                     row_best.push(v, j);
@@ -93,15 +94,63 @@ std::vector<Correspondence> match_descriptors(const DescriptorMatrix& A, const D
                     col_worst[static_cast<std::size_t>(j)] = cb.worst();
                 }
             }
-            for (int k = 0; k < row_best.size(); ++k)
-                out.push_back({r0 + i, row_best.index(k), dot_to_distance(row_best.score(k))});
+            const std::size_t base = static_cast<std::size_t>(r0 + i) * L.k;
+            L.row_count[static_cast<std::size_t>(r0 + i)] = row_best.size();
+            for (int q = 0; q < row_best.size(); ++q) {
+                L.row_index[base + q] = row_best.index(q);
+                L.row_dot[base + q] = row_best.score(q);
+            }
         }
     }
-    for (int j = 0; j < nb; ++j)
-        for (int k = 0; k < col_best[j].size(); ++k)
-            out.push_back({col_best[j].index(k), j, dot_to_distance(col_best[j].score(k))});
+    L.col_count.assign(static_cast<std::size_t>(nb), 0);
+    L.col_index.assign(static_cast<std::size_t>(nb) * L.k, 0);
+    L.col_dot.assign(static_cast<std::size_t>(nb) * L.k, 0.f);
+    for (int j = 0; j < nb; ++j) {
+        const auto& cb = col_best[static_cast<std::size_t>(j)];
+        const std::size_t base = static_cast<std::size_t>(j) * L.k;
+        L.col_count[static_cast<std::size_t>(j)] = cb.size();
+        for (int q = 0; q < cb.size(); ++q) {
+            L.col_index[base + q] = cb.index(q);
+            L.col_dot[base + q] = cb.score(q);
+        }
+    }
+    return L;
+}
+
+std::vector<Correspondence> select_correspondences(const NeighbourLists& L, int n_c, double t_c) {
+    std::vector<Correspondence> out;
+    if (n_c <= 0 || !(t_c > 0)) return out;
+    n_c = std::min(n_c, L.k);
+    // d < t_c  <=>  dot > 1 - t_c^2 (d is monotone in the dot product); t_c > 1 passes all.
+    const bool all_pass = t_c > 1.0;
+    const float min_dot = static_cast<float>(1.0 - std::min(1.0, t_c) * std::min(1.0, t_c));
+    auto take = [&](int n, const std::vector<int>& count, const std::vector<int>& index,
+                    const std::vector<float>& dot, bool rows) {
+        for (int i = 0; i < n; ++i) {
+            const std::size_t base = static_cast<std::size_t>(i) * L.k;
+            const int m = std::min(n_c, count[static_cast<std::size_t>(i)]);
+            for (int q = 0; q < m; ++q) {
+                const float v = dot[base + q];
+                if (!all_pass && !(v > min_dot)) break;  // lists are best first
+                const int other = index[base + q];
+                out.push_back({rows ? i : other, rows ? other : i, dot_to_distance(v)});
+            }
+        }
+    };
+    take(L.rows, L.row_count, L.row_index, L.row_dot, true);
+    take(L.cols, L.col_count, L.col_index, L.col_dot, false);
     dedup(out);
     return out;
+}
+
+std::vector<Correspondence> match_descriptors(const DescriptorMatrix& A, const DescriptorMatrix& B,
+                                              int n_c, double t_c, int block_rows) {
+    if (n_c <= 0 || !(t_c > 0)) return {};
+    n_c = std::min(n_c, NeighbourLists::kMaxK);
+    // Only one threshold is needed here: entries that cannot pass it are never kept.
+    const float min_dot =
+        t_c > 1.0 ? -2.0f : static_cast<float>(1.0 - std::min(1.0, t_c) * std::min(1.0, t_c));
+    return select_correspondences(nearest_descriptors(A, B, n_c, min_dot, block_rows), n_c, t_c);
 }
 
 std::vector<Correspondence> match_descriptors_brute_force(const DescriptorMatrix& A,

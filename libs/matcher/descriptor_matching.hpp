@@ -18,6 +18,32 @@ struct Correspondence {
     float distance = 0;  // normalized distance in [0, 1]
 };
 
+// The k nearest rows of B for every row of A and the k nearest rows of A for every row of B,
+// best first (largest dot product, ties to the smaller index). It depends only on the two
+// submaps' descriptors, so it can be cached per pair: the correspondences for any n_c <= k
+// and any t_c are a prefix of these lists (select_correspondences), exactly.
+struct NeighbourLists {
+    static constexpr int kMaxK = 16;
+    int k = 0, rows = 0, cols = 0;
+    std::vector<int> row_count, col_count;  // entries kept per row of A / per row of B
+    std::vector<int> row_index, col_index;  // [rows * k], [cols * k]
+    std::vector<float> row_dot, col_dot;
+    std::size_t bytes() const {
+        return sizeof(*this) + (row_count.size() + col_count.size()) * sizeof(int) +
+               (row_index.size() + col_index.size()) * (sizeof(int) + sizeof(float));
+    }
+};
+
+// k is capped at NeighbourLists::kMaxK. Entries with a dot product <= min_dot are not kept
+// (a speed-up when only one threshold is needed; the default keeps everything).
+NeighbourLists nearest_descriptors(const DescriptorMatrix& A, const DescriptorMatrix& B, int k,
+                                   float min_dot = -2.0f, int block_rows = 256);
+
+// From the lists: per row its up to n_c first entries with distance < t_c, both directions,
+// the union without duplicates, sorted by (a, b). Needs n_c <= lists.k.
+std::vector<Correspondence> select_correspondences(const NeighbourLists& lists, int n_c,
+                                                   double t_c);
+
 // For each row of A its up to n_c nearest rows of B with distance < t_c, and the same from B
 // to A; the union without duplicates, sorted by (a, b). Ties go to the smaller index.
 // Rows must be unit length (as SubmapFeatures stores them).

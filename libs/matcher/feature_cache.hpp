@@ -1,6 +1,5 @@
 #pragma once
-// In-memory LRU cache of per-submap features, bounded by bytes and entries. Thread-safe;
-// concurrent requests for the same key compute once and share the result.
+// The per-submap feature cache: an LruCache keyed by submap and per-submap parameters.
 
 #include <cstddef>
 #include <cstdint>
@@ -13,6 +12,7 @@
 #include <unordered_map>
 
 #include "matcher/features.hpp"
+#include "matcher/lru_cache.hpp"
 #include "matcher/matcher_params.hpp"
 
 namespace maptune::matcher {
@@ -24,15 +24,12 @@ struct FeatureCacheOptions {
     // (0.01 = "2 decimals" as the sample database rounds). Object-scale data (the bunny)
     // needs a finer quantum.
     double key_quantum = 0.01;
+    // Per-pair descriptor neighbour lists (what makes re-evaluating pair-stage parameters
+    // skip the descriptor GEMM): bound of their own cache; 0 disables it.
+    std::size_t max_neighbour_bytes = std::size_t{1} << 30;  // 1 GiB
 };
 
-struct FeatureCacheStats {
-    std::uint64_t hits = 0;
-    std::uint64_t misses = 0;  // computations started
-    std::uint64_t evictions = 0;
-    std::size_t bytes = 0;
-    std::size_t entries = 0;
-};
+using FeatureCacheStats = CacheStats;
 
 // The per-submap parameters rounded to the cache quantum (what is actually computed).
 MatcherParams quantize_feature_params(const MatcherParams& params, double quantum);
@@ -48,29 +45,18 @@ class FeatureCache {
     explicit FeatureCache(FeatureCacheOptions options = {});
 
     // Returns the cached entry or runs compute() (outside the lock). Timed-out results are
-    // returned but not stored, since they depend on load rather than on the key.
+    // returned but not stored, since they depend on load rather than on the key; an
+    // exception (bad_alloc and the like) becomes a FAILED result.
     FeaturesPtr get_or_compute(const std::string& key, const std::function<FeaturesPtr()>& compute);
-    FeaturesPtr find(const std::string& key);  // no compute; counts a hit if present
+    FeaturesPtr find(const std::string& key) { return cache_.find(key); }
 
-    FeatureCacheStats stats() const;
+    FeatureCacheStats stats() const { return cache_.stats(); }
     const FeatureCacheOptions& options() const { return options_; }
-    void clear();
+    void clear() { cache_.clear(); }
 
   private:
-    struct Entry {
-        std::string key;
-        FeaturesPtr value;
-        std::size_t bytes = 0;
-    };
-    void insert_locked(const std::string& key, FeaturesPtr value);
-    void evict_locked();
-
     FeatureCacheOptions options_;
-    mutable std::mutex mutex_;
-    std::list<Entry> lru_;  // front = most recently used
-    std::unordered_map<std::string, std::list<Entry>::iterator> index_;
-    std::unordered_map<std::string, std::shared_future<FeaturesPtr>> in_flight_;
-    FeatureCacheStats stats_;
+    LruCache<SubmapFeatures> cache_;
 };
 
 }  // namespace maptune::matcher

@@ -76,7 +76,8 @@ std::uint64_t pair_seed(std::uint64_t seed, const std::string& id_a, const std::
 
 PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
                           const MatcherParams& params, const MatcherSettings& settings,
-                          const Deadline& deadline, std::uint64_t seed) {
+                          const Deadline& deadline, std::uint64_t seed,
+                          const NeighbourLists* neighbours) {
     const auto t0 = std::chrono::steady_clock::now();
     PairResult r;
     for (const auto* f : {&a, &b}) {
@@ -95,7 +96,10 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
         return finish(r, MatchStatus::kFailed, "too few keypoints", t0);
 
     // 7. Bidirectional correspondences.
-    const auto corrs = match_descriptors(a.descriptors, b.descriptors, params.n_C, params.t_C);
+    const auto corrs =
+        neighbours && params.n_C <= neighbours->k
+            ? select_correspondences(*neighbours, params.n_C, params.t_C)
+            : match_descriptors(a.descriptors, b.descriptors, params.n_C, params.t_C);
     r.correspondences = static_cast<int>(corrs.size());
     r.descriptor_s = seconds_since(t0);
     const auto t_group = std::chrono::steady_clock::now();
@@ -180,8 +184,21 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
 }
 
 Matcher::Matcher(MatcherSettings settings, FeatureCacheOptions cache_options)
-    : settings_(settings), cache_(cache_options) {
+    : settings_(settings),
+      cache_(cache_options),
+      neighbour_cache_(cache_options.max_neighbour_bytes, cache_options.max_entries) {
     silence_pcl_console();
+}
+
+std::shared_ptr<const NeighbourLists> Matcher::neighbours(const SubmapFeatures& a,
+                                                          const SubmapFeatures& b,
+                                                          const std::string& key_a,
+                                                          const std::string& key_b) {
+    if (cache_.options().max_neighbour_bytes == 0) return nullptr;
+    return neighbour_cache_.get_or_compute(key_a + "||" + key_b, [&] {
+        return std::make_shared<const NeighbourLists>(
+            nearest_descriptors(a.descriptors, b.descriptors, kNeighbourListLength));
+    });
 }
 
 int Matcher::thread_count() const {
@@ -223,6 +240,7 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
     const auto t_start = std::chrono::steady_clock::now();
     const Deadline total = Deadline::in(settings_.total_time_limit_s);
     const auto cache_before = cache_.stats();
+    const auto neighbours_before = neighbour_cache_.stats();
     std::vector<PairResult> results(pairs.size());
 
     // Submaps involved in valid pairs.
@@ -237,6 +255,12 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
         if (used[static_cast<std::size_t>(i)]) todo.push_back(i);
 
     std::vector<std::shared_ptr<const SubmapFeatures>> feats(submaps.size());
+    std::vector<std::string> keys(submaps.size());
+    const double quantum = cache_.options().key_quantum;
+    const MatcherParams quantized = quantize_feature_params(params, quantum);
+    for (int i : todo)
+        keys[static_cast<std::size_t>(i)] =
+            feature_key(*submaps[static_cast<std::size_t>(i)], quantized, settings_, quantum);
     parallel_for(static_cast<int>(todo.size()), thread_count(), [&](int k) {
         const int i = todo[static_cast<std::size_t>(k)];
         if (total.expired()) {
@@ -269,9 +293,21 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
         const Deadline d = Deadline::earliest(total, Deadline::in(settings_.pair_time_limit_s));
         const auto& fa = *feats[static_cast<std::size_t>(i)];
         const auto& fb = *feats[static_cast<std::size_t>(j)];
+        // Step 7's GEMM depends only on the two submaps' features: cached per pair, so a new
+        // set of pair-stage parameters (n_C, t_C, v_TF, n_TF) does not repeat it.
+        const auto t_lists = std::chrono::steady_clock::now();
+        std::shared_ptr<const NeighbourLists> lists;
+        if (fa.status == FeatureStatus::kOk && fb.status == FeatureStatus::kOk &&
+            params.n_C <= kNeighbourListLength)
+            lists = neighbours(fa, fb, keys[static_cast<std::size_t>(i)],
+                               keys[static_cast<std::size_t>(j)]);
+        const double lists_s = seconds_since(t_lists);
         r = match_features(fa, fb, params, settings_, d,
                            pair_seed(settings_.seed, submaps[static_cast<std::size_t>(i)]->id,
-                                     submaps[static_cast<std::size_t>(j)]->id));
+                                     submaps[static_cast<std::size_t>(j)]->id),
+                           lists.get());
+        r.descriptor_s += lists_s;
+        r.duration_s += lists_s;
     });
 
     if (stats) {
@@ -282,6 +318,7 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
         stats->pair_wall_s = seconds_since(t_features);
         stats->cache_hits = cache_after.hits - cache_before.hits;
         stats->cache_misses = cache_after.misses - cache_before.misses;
+        stats->neighbour_hits = neighbour_cache_.stats().hits - neighbours_before.hits;
         stats->failed = stats->timeouts = stats->matched = 0;
         for (const auto& r : results) {
             stats->failed += r.status == MatchStatus::kFailed;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "dataset/submap.hpp"
+#include "matcher/descriptor_matching.hpp"
 #include "matcher/feature_cache.hpp"
 #include "matcher/features.hpp"
 #include "matcher/match_result.hpp"
@@ -16,10 +17,13 @@
 namespace maptune::matcher {
 
 // The pair stage (SPEC §3 steps 7-10) on precomputed features; a is the target (scene), b the
-// source (model). `seed` drives every random choice of this pair.
+// source (model). `seed` drives every random choice of this pair. With `neighbours` (the
+// pair's nearest_descriptors lists, k >= n_C) step 7 selects from them instead of running the
+// descriptor GEMM; the result is the same.
 PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
                           const MatcherParams& params, const MatcherSettings& settings,
-                          const Deadline& deadline, std::uint64_t seed);
+                          const Deadline& deadline, std::uint64_t seed,
+                          const NeighbourLists* neighbours = nullptr);
 
 // Seed of one pair, independent of thread scheduling: mixes the settings seed and both ids.
 std::uint64_t pair_seed(std::uint64_t seed, const std::string& id_a, const std::string& id_b);
@@ -31,6 +35,7 @@ struct EvaluationStats {
     double pair_wall_s = 0.0;        // pair stage
     std::uint64_t cache_hits = 0;    // during this call
     std::uint64_t cache_misses = 0;  // during this call
+    std::uint64_t neighbour_hits = 0;  // pairs whose descriptor neighbour lists were cached
     int failed = 0, timeouts = 0, matched = 0;
 };
 
@@ -65,8 +70,17 @@ class Matcher {
   private:
     int thread_count() const;
 
+    // Neighbour lists of a pair, cached by both feature keys; null when the cache is off.
+    std::shared_ptr<const NeighbourLists> neighbours(const SubmapFeatures& a,
+                                                     const SubmapFeatures& b,
+                                                     const std::string& key_a,
+                                                     const std::string& key_b);
+
     MatcherSettings settings_;
     FeatureCache cache_;
+    // Lists of length kNeighbourListLength serve every n_C of the design space (<= 10).
+    static constexpr int kNeighbourListLength = 10;
+    LruCache<NeighbourLists> neighbour_cache_;
 };
 
 }  // namespace maptune::matcher

@@ -50,6 +50,21 @@ TEST_P(DescriptorMatchingTest, EqualsBruteForceOracle) {
     }
 }
 
+TEST_P(DescriptorMatchingTest, CachedNeighbourListsGiveTheSameCorrespondences) {
+    // One list of length 10 per pair serves every (n_C <= 10, t_C): the re-evaluation path.
+    const auto [n_c, t_c, block] = GetParam();
+    const auto [A, B] = make_descriptors(150, 130, 7u + static_cast<unsigned>(n_c));
+    const auto lists = nearest_descriptors(A, B, 10, -2.0f, block);
+    const auto selected = select_correspondences(lists, n_c, t_c);
+    const auto oracle = match_descriptors_brute_force(A, B, n_c, t_c);
+    ASSERT_EQ(selected.size(), oracle.size());
+    for (std::size_t i = 0; i < selected.size(); ++i) {
+        EXPECT_EQ(selected[i].a, oracle[i].a) << i;
+        EXPECT_EQ(selected[i].b, oracle[i].b) << i;
+        EXPECT_NEAR(selected[i].distance, oracle[i].distance, 1e-3);
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Variants, DescriptorMatchingTest,
                          ::testing::Values(std::make_tuple(1, 0.5, 256),
                                            std::make_tuple(3, 0.35, 64),

@@ -109,6 +109,26 @@ TEST_F(ScenePair, CacheReusedWhenOnlyPairStageParametersChange) {
     EXPECT_EQ(m.cache().stats().entries, 4u);
 }
 
+TEST_F(ScenePair, NeighbourListsReusedForNewPairStageParametersWithTheSameResult) {
+    std::vector<const dataset::Submap*> submaps{a_, b_};
+    MatcherParams p;
+    Matcher m(fast_settings());
+    EvaluationStats st;
+    m.match_pairs(submaps, {{0, 1}}, p, &st);
+    EXPECT_EQ(st.neighbour_hits, 0u);
+    p.n_C = 5, p.t_C = 0.8, p.v_TF = 0.3, p.n_TF = 4;
+    const auto reused = m.match_pairs(submaps, {{0, 1}}, p, &st).front();
+    EXPECT_EQ(st.neighbour_hits, 1u);
+    // A matcher that never saw the first parameter set computes the same.
+    Matcher fresh(fast_settings());
+    const auto direct = fresh.match_pairs(submaps, {{0, 1}}, p).front();
+    EXPECT_EQ(reused.status, direct.status);
+    EXPECT_EQ(reused.correspondences, direct.correspondences);
+    EXPECT_EQ(reused.group_size, direct.group_size);
+    EXPECT_EQ(reused.ransac_inliers, direct.ransac_inliers);
+    EXPECT_TRUE(reused.T_a_b.isApprox(direct.T_a_b, 1e-9));
+}
+
 TEST_F(ScenePair, CacheEvictsByEntriesAndBytes) {
     FeatureCacheOptions opt;
     opt.max_entries = 1;
