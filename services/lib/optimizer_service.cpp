@@ -219,6 +219,9 @@ RunSummary OptimizerService::run() {
     } else {
         log("resumed " + std::to_string(resumed.size()) + " evaluations from " +
             (options_.run_dir / "trials.csv").string());
+        // A late `watch` gets the resumed best at once, even when the budget is already used
+        // and no new reply (which is what publishes otherwise) will come.
+        if (summary.best >= 0) publish(summary, static_cast<int>(resumed.size()));
     }
 
     std::map<std::string, InFlight> in_flight;
