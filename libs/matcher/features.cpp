@@ -14,6 +14,7 @@
 #include <cmath>
 #include <mutex>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "matcher/features_internal.hpp"
 
@@ -143,6 +144,7 @@ std::size_t SubmapFeatures::bytes() const {
     if (icp_cloud && icp_cloud->cloud) {
         // Points plus roughly the same again for the FLANN index.
         b += icp_cloud->cloud->size() * (sizeof(IcpPoint) + 32);
+        if (icp_cloud->source != icp_cloud->cloud) b += icp_cloud->source->size() * sizeof(IcpPoint);
     }
     return b;
 }
@@ -437,6 +439,21 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
         }
         icp->tree.reset(new pcl::search::KdTree<IcpPoint>);
         icp->tree->setInputCloud(icp->cloud);
+        // As ICP source, one point per coarser voxel: point-to-plane accuracy comes from the
+        // target's normals, and the source size is what every iteration's searches cost.
+        icp->source = icp->cloud;
+        const double source_leaf = settings.icp_source_voxel_factor * settings.icp_voxel_m;
+        if (settings.icp_voxel_m > 0 && settings.icp_source_voxel_factor > 1.0) {
+            icp->source.reset(new pcl::PointCloud<IcpPoint>);
+            std::unordered_set<VoxelKey, VoxelKeyHash> seen;
+            const double inv = 1.0 / source_leaf;
+            for (const auto& q : icp->cloud->points) {
+                const VoxelKey cell{static_cast<std::int64_t>(std::floor(q.x * inv)),
+                                    static_cast<std::int64_t>(std::floor(q.y * inv)),
+                                    static_cast<std::int64_t>(std::floor(q.z * inv))};
+                if (seen.insert(cell).second) icp->source->push_back(q);
+            }
+        }
         f->icp_cloud = icp;
     }
 

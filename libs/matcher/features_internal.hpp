@@ -15,6 +15,7 @@ using IcpPoint = pcl::PointNormal;
 struct IcpCloud {
     pcl::PointCloud<IcpPoint>::Ptr cloud;
     pcl::search::KdTree<IcpPoint>::Ptr tree;  // built once; ICP reuses it as target tree
+    pcl::PointCloud<IcpPoint>::Ptr source;     // the subset used when this submap is the source
 };
 
 }  // namespace maptune::matcher

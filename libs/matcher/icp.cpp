@@ -15,13 +15,13 @@ IcpResult refine_icp(const SubmapFeatures& a, const SubmapFeatures& b,
     IcpResult result;
     result.T_a_b = T_a_b_init;
     if (!a.icp_cloud || !b.icp_cloud || a.icp_cloud->cloud->size() < 3 ||
-        b.icp_cloud->cloud->size() < 3 || max_iterations <= 0 || !(max_correspondence_m > 0))
+        b.icp_cloud->source->size() < 3 || max_iterations <= 0 || !(max_correspondence_m > 0))
         return result;
     pcl::IterativeClosestPoint<IcpPoint, IcpPoint> point_to_point;
     pcl::IterativeClosestPointWithNormals<IcpPoint, IcpPoint> point_to_plane;
     pcl::IterativeClosestPoint<IcpPoint, IcpPoint>& icp =
         point_to_plane_enabled ? point_to_plane : point_to_point;
-    icp.setInputSource(b.icp_cloud->cloud);
+    icp.setInputSource(b.icp_cloud->source);
     icp.setInputTarget(a.icp_cloud->cloud);
     // The target tree was built with the features; do not rebuild it per pair.
     icp.setSearchMethodTarget(a.icp_cloud->tree, true);

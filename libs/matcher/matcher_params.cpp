@@ -60,7 +60,7 @@ std::string feature_settings_fingerprint(const MatcherSettings& s) {
        << s.surface_points_per_radius << '/' << s.unknown_samples_per_diameter << '/'
        << s.viewpoint_x << ',' << s.viewpoint_y << ',' << s.viewpoint_z << '/' << s.icp_voxel_m
        << '/' << s.min_points << '/' << s.min_keypoints << '/' << static_cast<int>(s.lrf_method)
-       << '/' << s.icp_point_to_plane;
+       << '/' << s.icp_point_to_plane << '/' << s.icp_source_voxel_factor;
     return os.str();
 }
 

@@ -84,6 +84,9 @@ struct MatcherSettings {
     // voxel): converges in a few iterations where point-to-point slides along the floor for
     // all 30 (measured: ICP was 60 % of the lab pair stage). false: point-to-point.
     bool icp_point_to_plane = true;
+    // The ICP source (b) is thinned to one point per voxel of this many icp_voxel_m (<= 1: the
+    // whole ICP cloud); the target keeps full resolution. 2 = a quarter of the searches.
+    double icp_source_voxel_factor = 2.0;
 
     // Step 10: optional plausibility check for ground robots (submap frames gravity
     // aligned): relative roll and pitch must stay below this bound. <= 0 disables it.
