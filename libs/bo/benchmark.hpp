@@ -1,5 +1,7 @@
 #pragma once
 // Regret and timing benchmarks of the optimizer (the only place in bo that reads a clock).
+// Wall times are what a caller waits; CPU times (std::clock: all threads of the process) are
+// the work done, which is what stays comparable on a machine shared with other jobs.
 
 #include <cstdint>
 #include <string>
@@ -44,12 +46,14 @@ RegretSummary summarize(const std::string& function, const std::string& acquisit
 struct AskTiming {
     int n = 0;
     int dim = 0;
-    double first_ask_seconds = 0.0;   // includes the hyperparameter fit
+    double first_ask_seconds = 0.0;  // includes the hyperparameter fit
+    double first_ask_cpu_seconds = 0.0;
     double median_ask_seconds = 0.0;  // without refit (median of `repeats`)
     // A running optimizer from there: `repeats` consecutive ask/tell rounds with real values,
     // so the periodic warm refits are included.
     double running_median_seconds = 0.0;
     double running_max_seconds = 0.0;
+    double running_max_cpu_seconds = 0.0;  // CPU time of the round with the longest wall time
 };
 AskTiming time_ask(int n, int dim, int repeats, OptimizerOptions options);
 
@@ -61,12 +65,16 @@ struct GpTiming {
     double factorize_seconds = 0.0;  // kernel matrix + Cholesky
     double append_seconds = 0.0;     // one O(n²) append (median)
     double fit_seconds = 0.0;        // hyperparameter fit (default options)
-    double fit_full_seconds = 0.0;   // fit on all n points (no subset), 0 if skipped
+    double fit_cpu_seconds = 0.0;
+    double fit_full_seconds = 0.0;  // fit on all n points (no subset), 0 if skipped
     int fit_evaluations = 0;
     double predict_seconds = 0.0;  // mean + variance at predict_points
+    double predict_cpu_seconds = 0.0;
     int predict_points = 0;
 };
-GpTiming time_gp(int n, int dim, int predict_points, gp::CholeskyBackend backend, bool full_fit);
+// threads: gp::GpOptions::threads of the model timed.
+GpTiming time_gp(int n, int dim, int predict_points, gp::CholeskyBackend backend, bool full_fit,
+                 int threads = 0);
 
 double median(std::vector<double> v);
 

@@ -8,6 +8,8 @@
 #include <numeric>
 #include <random>
 
+#include "gp/parallel.hpp"
+
 namespace maptune::bo {
 
 namespace {
@@ -302,15 +304,23 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
     param.past = 1;
     param.delta = 1e-10;
     param.max_linesearch = 20;
-    LBFGSpp::LBFGSBSolver<double> solver(param);
-    for (std::size_t s = 0; s < n_starts; ++s) {
-        const Eigen::Index c = idx[s];
-        if (!std::isfinite(acq(c))) break;
+    // The polishes are independent: they run side by side and are merged in start order below,
+    // exactly as one after the other. Starts are sorted by value, so the finite ones lead.
+    std::size_t n_polish = 0;
+    while (n_polish < n_starts && std::isfinite(acq(idx[n_polish]))) ++n_polish;
+    struct Polished {
+        double value = -std::numeric_limits<double>::infinity();
+        Eigen::VectorXd u;
+    };
+    std::vector<Polished> polished(n_polish);
+    auto polish = [&](int s) {
+        const Eigen::Index c = idx[static_cast<std::size_t>(s)];
         Eigen::VectorXd lb = Eigen::VectorXd::Zero(d), ub = Eigen::VectorXd::Ones(d);
         for (int j = 0; j < d; ++j) {
             if (space_.specs()[static_cast<std::size_t>(j)].is_integer)
                 lb(j) = ub(j) = cand_u(j, c);
         }
+        LBFGSpp::LBFGSBSolver<double> solver(param);
         AcquisitionObjective objective{model.gp, space_, ctx};
         Eigen::VectorXd u = cand_u.col(c);
         double fx = 0.0;
@@ -319,11 +329,15 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
         } catch (const std::exception&) {
             // Line search gave up; the best point it saw is still usable.
         }
-        if (objective.best_u.size() == 0 || objective.best_value <= best_value) continue;
-        const Point p = make_point(objective.best_u);
-        if (is_taken(p.g) || near_failure(p.g)) continue;
-        best_value = objective.best_value;
-        best_u = p.u;
+        polished[static_cast<std::size_t>(s)] = {objective.best_value, objective.best_u};
+    };
+    gp::parallel_for(static_cast<int>(n_polish), gp::resolve_threads(options_.gp.threads), polish);
+    for (const Polished& p : polished) {
+        if (p.u.size() == 0 || p.value <= best_value) continue;
+        const Point point = make_point(p.u);
+        if (is_taken(point.g) || near_failure(point.g)) continue;
+        best_value = p.value;
+        best_u = point.u;
     }
     if (!std::isfinite(best_value)) {
         // Every candidate was taken or excluded (tiny integer space): fall back to the design.

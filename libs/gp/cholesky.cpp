@@ -1,6 +1,7 @@
 #include "gp/cholesky.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -85,13 +86,38 @@ Eigen::MatrixXd EigenCholesky::solve(const Eigen::MatrixXd& b) const {
     return x;
 }
 
+void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& linv,
+                        Eigen::MatrixXd& inverse) {
+    // A⁻¹ = L⁻ᵀ L⁻¹, both factors triangular. In blocks that skip their zeros (a column block of
+    // L⁻¹ is zero above its diagonal block, a row block zero right of it) this takes n³/3
+    // multiply-adds instead of the ~n³ of dense solves and a dense product.
+    const Eigen::Index n = l.rows();
+    const Eigen::Index block = 32;
+    linv.setZero(n, n);
+    for (Eigen::Index j0 = 0; j0 < n; j0 += block) {
+        const Eigen::Index w = std::min(block, n - j0);
+        const Eigen::Index rows = n - j0;
+        auto columns = linv.block(j0, j0, rows, w);
+        columns.topRows(w).setIdentity();
+        l.block(j0, j0, rows, rows).triangularView<Eigen::Lower>().solveInPlace(columns);
+    }
+    inverse.setZero(n, n);
+    for (Eigen::Index k0 = 0; k0 < n; k0 += block) {
+        const Eigen::Index h = std::min(block, n - k0);
+        const Eigen::Index cols = k0 + h;
+        inverse.topLeftCorner(cols, cols)
+            .selfadjointView<Eigen::Lower>()
+            .rankUpdate(linv.block(k0, 0, h, cols).transpose());
+    }
+    for (Eigen::Index j = 1; j < n; ++j) {
+        inverse.col(j).head(j) = inverse.row(j).head(j).transpose();
+    }
+}
+
 Eigen::MatrixXd EigenCholesky::inverse() const {
-    // A⁻¹ = L⁻ᵀ L⁻¹: one triangular inverse plus a symmetric product, cheaper than two solves.
-    Eigen::MatrixXd linv = Eigen::MatrixXd::Identity(n_, n_);
-    lower().solveInPlace(linv);
-    Eigen::MatrixXd inv = Eigen::MatrixXd::Zero(n_, n_);
-    inv.selfadjointView<Eigen::Lower>().rankUpdate(linv.transpose());
-    return inv.selfadjointView<Eigen::Lower>();
+    Eigen::MatrixXd linv, inv;
+    inverse_from_lower(l_.topLeftCorner(n_, n_), linv, inv);
+    return inv;
 }
 
 double EigenCholesky::log_det() const {

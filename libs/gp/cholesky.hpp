@@ -3,7 +3,9 @@
 // dense Eigen backend and the SuiteSparse CHOLMOD backend can be swapped and benchmarked.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace maptune::gp {
@@ -36,9 +38,20 @@ class Cholesky {
     virtual Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const = 0;        // A⁻¹ b
     virtual Eigen::MatrixXd inverse() const;                                  // A⁻¹
     virtual double log_det() const = 0;                                       // log |A|
+
+    // L itself (size() × size(), column-major) when the backend keeps it dense: the GP's
+    // blocked prediction reads it directly. CHOLMOD's factor is supernodal: nullopt.
+    using DenseLower = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
+    virtual std::optional<DenseLower> dense_lower() const { return std::nullopt; }
 };
 
 std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend);
+
+// A⁻¹ from the lower Cholesky factor L of A (only its lower triangle is read), in n³/3
+// multiply-adds; linv receives L⁻¹. Both outputs are resized; reusing them across calls
+// avoids the allocations.
+void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& linv,
+                        Eigen::MatrixXd& inverse);
 
 class EigenCholesky final : public Cholesky {
   public:
@@ -51,6 +64,10 @@ class EigenCholesky final : public Cholesky {
     Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const override;
     Eigen::MatrixXd inverse() const override;
     double log_det() const override;
+    std::optional<DenseLower> dense_lower() const override {
+        const Eigen::Index ld = std::max<Eigen::Index>(l_.rows(), 1);
+        return DenseLower(l_.data(), n_, n_, Eigen::OuterStride<>(ld));
+    }
     // Rank-1 update (sigma = +1) or downdate (sigma = -1) of A ± v vᵀ in O(n²).
     bool rank_update(const Eigen::VectorXd& v, double sigma);
 

@@ -44,6 +44,10 @@ struct GpOptions {
     MeanKind mean = MeanKind::constant;
     CholeskyBackend backend = CholeskyBackend::eigen;
     FitOptions fit;
+    // Threads inside predict (large batches only) and across the starts of fit (libs/bo also
+    // uses it for the acquisition polishes): 0 = the hardware's, at most kMaxAutoThreads
+    // (gp/parallel.hpp); 1 = the calling thread only. Results are identical for every value.
+    int threads = 0;
 };
 
 struct FitResult {
@@ -67,6 +71,10 @@ struct PointPrediction {
 double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                          const Eigen::VectorXd& theta, const FitOptions& options,
                          Eigen::VectorXd* grad, CholeskyBackend backend = CholeskyBackend::eigen);
+
+// Instruction set the batched kernels (simd_kernels.cpp) were built for: "avx512", "avx2",
+// "sse2" or "generic" (CMake options MAPTUNE_GP_AVX2, MAPTUNE_GP_AVX512).
+const char* kernel_instruction_set();
 
 // Log-normal prior on length scales, centred at √2 + ½ log d with scale √3 (Hvarfner et al.,
 // "Vanilla Bayesian optimization performs great in high dimensions", 2024).
@@ -103,11 +111,16 @@ class GaussianProcess {
     FitResult fit(std::uint64_t seed);
 
     // Posterior mean and latent variance at the columns of xs (d×m), in the caller's units.
+    // With a dense factor (Eigen backend) each point's result depends only on that point (not
+    // on m, its position or threads).
     void predict(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean, Eigen::VectorXd& variance) const;
     PointPrediction predict_with_gradient(const Eigen::VectorXd& x) const;
 
   private:
     bool refactorize();
+    // predict through Cholesky::solve_lower, for backends without a dense factor.
+    void predict_generic(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean,
+                         Eigen::VectorXd& variance) const;
     void update_alpha();
 
     int dim_;

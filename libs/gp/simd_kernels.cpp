@@ -1,0 +1,273 @@
+#include "gp/simd_kernels.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
+namespace maptune::gp::detail {
+
+namespace {
+
+// GCC/Clang vector extensions: one source for AVX-512 (8 doubles), AVX2 (4) and baseline SSE2
+// (2). Register tile of the solve: kRows rows of L against a strip of kVecs vectors of queries,
+// kRows·kVecs accumulators: 24 of AVX-512's 32 registers, 12 of AVX2's and SSE2's 16.
+#if defined(__AVX512F__)
+constexpr int kLanes = 8;
+constexpr Index kRows = 8;
+#elif defined(__AVX__)
+constexpr int kLanes = 4;
+constexpr Index kRows = 4;
+#else
+constexpr int kLanes = 2;
+constexpr Index kRows = 4;
+#endif
+constexpr int kVecs = 3;
+constexpr Index kStrip = kVecs * kLanes;
+typedef double Vec __attribute__((vector_size(8 * kLanes)));
+typedef std::int64_t IVec __attribute__((vector_size(8 * kLanes)));
+
+Vec load(const double* p) {
+    Vec v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+void store(double* p, Vec v) { std::memcpy(p, &v, sizeof v); }
+Vec splat(double x) { return Vec{} + x; }
+
+Vec sqrt_v(Vec x) {
+#if defined(__AVX512F__)
+    // The zero-masking form: GCC 12 warns (-Wuninitialized) inside the plain _mm512_sqrt_pd.
+    return _mm512_maskz_sqrt_pd(0xFF, x);
+#elif defined(__AVX__)
+    return _mm256_sqrt_pd(x);
+#elif defined(__SSE2__)
+    return _mm_sqrt_pd(x);
+#else
+    for (int i = 0; i < kLanes; ++i) x[i] = std::sqrt(x[i]);
+    return x;
+#endif
+}
+
+// e^x for x ≤ 0: 2^k e^r with k = round(x / ln 2) and |r| ≤ ln 2 / 2, where the Taylor
+// polynomial of degree 12 is within 2e-16. Below −708 the result would be subnormal; clamping
+// there keeps 2^k a normal number (k ≥ −1022) and changes values by < 1e-307.
+Vec exp_nonpositive(Vec x) {
+    const double shift = 0x1.8p52;  // adding it rounds to an integer kept in the low bits
+    const Vec lowest = splat(-708.0);
+    x = x < lowest ? lowest : x;
+    const Vec t = x * 1.4426950408889634 + shift;
+    const Vec k = t - shift;
+    const Vec r = (x - k * 6.93147180369123816490e-01) - k * 1.90821492927058770002e-10;
+    Vec p = splat(1.0 / 479001600.0);
+    p = p * r + 1.0 / 39916800.0;
+    p = p * r + 1.0 / 3628800.0;
+    p = p * r + 1.0 / 362880.0;
+    p = p * r + 1.0 / 40320.0;
+    p = p * r + 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    const IVec shift_bits = (IVec)splat(shift);
+    const IVec pow2 = ((IVec)t - shift_bits + 1023) << 52;
+    return p * (Vec)pow2;
+}
+
+// k and q of matern52_from_sq_dist for one vector of squared distances.
+void matern52_terms(Vec r2, double signal_variance, Vec& k, Vec& q) {
+    const double sqrt5 = 2.23606797749978969641;
+    const Vec s5r = sqrt5 * sqrt_v(r2);
+    const Vec se = signal_variance * exp_nonpositive(-s5r);
+    k = ((1.0 + s5r) + (5.0 / 3.0) * r2) * se;
+    q = (5.0 / 3.0) * (1.0 + s5r) * se;
+}
+
+constexpr std::size_t kCacheLine = 64;  // bytes
+
+Index padded(Index n) { return (n + kRows - 1) / kRows * kRows; }
+Index min_index(Index a, Index b) { return a < b ? a : b; }
+Index block_offset(Index b) { return kRows * kRows * b * (b + 1) / 2; }
+
+// Strip y (n_pad rows of kStrip queries): y[i][c] = k(z_i, zq_c), zero on padding rows;
+// mean[c] = Σ_i y[i][c] α_i. zq holds the strip's queries dimension-major (dim × kStrip).
+void cross_covariance(const PredictProblem& p, Index n_pad, const double* zq, double* y,
+                      double* mean) {
+    Vec acc[kVecs] = {};
+    for (Index i = 0; i < p.n; ++i) {
+        const double* zi = p.z + i * p.dim;
+        Vec r2[kVecs] = {};
+        for (int d = 0; d < p.dim; ++d) {
+            // Differences rather than |a|² + |b|² − 2a·b: no cancellation next to observations.
+            for (int v = 0; v < kVecs; ++v) {
+                const Vec diff = load(zq + d * kStrip + v * kLanes) - zi[d];
+                r2[v] += diff * diff;
+            }
+        }
+        for (int v = 0; v < kVecs; ++v) {
+            Vec k, q;
+            matern52_terms(r2[v], p.signal_variance, k, q);
+            store(y + i * kStrip + v * kLanes, k);
+            acc[v] += k * p.alpha[i];
+        }
+    }
+    const auto padding = static_cast<std::size_t>((n_pad - p.n) * kStrip);
+    std::memset(y + p.n * kStrip, 0, sizeof(double) * padding);
+    for (int v = 0; v < kVecs; ++v) store(mean + v * kLanes, acc[v]);
+}
+
+// Rows i0 .. i0 + kRows − 1 of L⁻¹k* for every query of a strip, given the earlier rows
+// (left-looking), in place of k*; adds their squares to ss.
+void solve_rows(const double* lb, Index i0, const double* inv_diag, double* y, double* ss) {
+    Vec a[kRows][kVecs];
+    for (Index r = 0; r < kRows; ++r) {
+        for (int v = 0; v < kVecs; ++v) a[r][v] = load(y + (i0 + r) * kStrip + v * kLanes);
+    }
+    for (Index j = 0; j < i0; ++j) {
+        const double* yj = y + j * kStrip;
+        Vec yv[kVecs];
+        for (int v = 0; v < kVecs; ++v) yv[v] = load(yj + v * kLanes);
+        const double* l = lb + j * kRows;
+        for (Index r = 0; r < kRows; ++r) {
+            for (int v = 0; v < kVecs; ++v) a[r][v] -= l[r] * yv[v];
+        }
+    }
+    const double* d = lb + i0 * kRows;  // d[jj·kRows + r] = L(i0 + r, i0 + jj)
+    Vec s[kVecs];
+    for (int v = 0; v < kVecs; ++v) s[v] = load(ss + v * kLanes);
+    for (Index r = 0; r < kRows; ++r) {
+        for (Index jj = 0; jj < r; ++jj) {
+            for (int v = 0; v < kVecs; ++v) a[r][v] -= d[jj * kRows + r] * a[jj][v];
+        }
+        for (int v = 0; v < kVecs; ++v) {
+            a[r][v] *= inv_diag[i0 + r];
+            store(y + (i0 + r) * kStrip + v * kLanes, a[r][v]);
+            s[v] += a[r][v] * a[r][v];
+        }
+    }
+    for (int v = 0; v < kVecs; ++v) store(ss + v * kLanes, s[v]);
+}
+
+}  // namespace
+
+void matern52_from_sq_dist(const double* r2, Index count, double signal_variance, double* k,
+                           double* q) {
+    Index i = 0;
+    for (; i + kLanes <= count; i += kLanes) {
+        Vec kv, qv;
+        matern52_terms(load(r2 + i), signal_variance, kv, qv);
+        store(k + i, kv);
+        if (q != nullptr) store(q + i, qv);
+    }
+    if (i < count) {
+        // The tail through a zero-padded vector, so that every value takes the same path.
+        double in[kLanes] = {}, out_k[kLanes], out_q[kLanes];
+        std::memcpy(in, r2 + i, sizeof(double) * static_cast<std::size_t>(count - i));
+        Vec kv, qv;
+        matern52_terms(load(in), signal_variance, kv, qv);
+        store(out_k, kv);
+        store(out_q, qv);
+        std::memcpy(k + i, out_k, sizeof(double) * static_cast<std::size_t>(count - i));
+        if (q != nullptr) {
+            std::memcpy(q + i, out_q, sizeof(double) * static_cast<std::size_t>(count - i));
+        }
+    }
+}
+
+Index strip_width() { return kStrip; }
+
+const char* instruction_set() {
+#if defined(__AVX512F__)
+    return "avx512";
+#elif defined(__AVX2__) && defined(__FMA__)
+    return "avx2";
+#elif defined(__SSE2__)
+    return "sse2";
+#else
+    return "generic";
+#endif
+}
+
+Index packed_lower_size(Index n) {
+    const Index n_pad = padded(n);
+    return block_offset(n_pad / kRows) + n_pad;
+}
+
+void pack_lower(const double* l, Index ld, Index n, double* packed) {
+    // Block b holds rows i0 = b·kRows .. i0 + kRows − 1 for columns 0 .. i0 + kRows − 1,
+    // column by column (the kRows values of a column are adjacent), zero above the diagonal.
+    // Padding rows are rows of the identity, so their solution is 0 and adds nothing.
+    const Index n_pad = padded(n);
+    const Index blocks = n_pad / kRows;
+    double* inv_diag = packed + block_offset(blocks);
+    for (Index b = 0; b < blocks; ++b) {
+        const Index i0 = b * kRows;
+        double* lb = packed + block_offset(b);
+        for (Index j = 0; j < i0 + kRows; ++j) {
+            for (Index r = 0; r < kRows; ++r) {
+                const Index i = i0 + r;
+                double value = 0.0;
+                if (i < n) {
+                    if (j <= i) value = l[j * ld + i];
+                } else if (j == i) {
+                    value = 1.0;
+                }
+                lb[j * kRows + r] = value;
+            }
+        }
+    }
+    for (Index i = 0; i < n_pad; ++i) inv_diag[i] = i < n ? 1.0 / l[i * ld + i] : 1.0;
+}
+
+Index work_size(Index n, int dim, Index strips) {
+    return strips * kStrip * (padded(n) + 2) + dim * kStrip +
+           static_cast<Index>(kCacheLine / sizeof(double));
+}
+
+void predict_range(const PredictProblem& p, const double* zs, Index first, Index count,
+                   Index strips, double* work, double* mean, double* variance) {
+    const Index n_pad = padded(p.n);
+    const Index blocks = n_pad / kRows;
+    const double* inv_diag = p.packed_l + block_offset(blocks);
+    const Index y_size = n_pad * kStrip;
+    // Strips start on a cache line: with AVX-512 a strip row is three lines, so no 512-bit
+    // load of the solve's inner loop straddles two (malloc gives 16-byte alignment).
+    while (reinterpret_cast<std::uintptr_t>(work) % kCacheLine != 0) ++work;
+    double* ys = work;                     // strips × n_pad × kStrip
+    double* ss = ys + strips * y_size;     // strips × kStrip
+    double* means = ss + strips * kStrip;  // strips × kStrip
+    double* zq = means + strips * kStrip;  // dim × kStrip, one strip at a time
+    for (Index done = 0; done < count; done += strips * kStrip) {
+        const Index chunk = min_index(strips * kStrip, count - done);
+        const Index chunk_strips = (chunk + kStrip - 1) / kStrip;
+        for (Index s = 0; s < chunk_strips; ++s) {
+            for (Index c = 0; c < kStrip; ++c) {
+                // A partial strip repeats its last query; those lanes are discarded.
+                const Index q = first + done + min_index(s * kStrip + c, chunk - 1);
+                for (int d = 0; d < p.dim; ++d) zq[d * kStrip + c] = zs[q * p.dim + d];
+            }
+            cross_covariance(p, n_pad, zq, ys + s * y_size, means + s * kStrip);
+            std::memset(ss + s * kStrip, 0, sizeof(double) * kStrip);
+        }
+        // Row blocks outside, strips inside: a block of L (kRows·n doubles) stays in cache
+        // while every strip of the chunk streams its earlier rows from L2.
+        for (Index b = 0; b < blocks; ++b) {
+            const double* lb = p.packed_l + block_offset(b);
+            for (Index s = 0; s < chunk_strips; ++s) {
+                solve_rows(lb, b * kRows, inv_diag, ys + s * y_size, ss + s * kStrip);
+            }
+        }
+        for (Index c = 0; c < chunk; ++c) {
+            mean[done + c] = means[c];
+            variance[done + c] = p.signal_variance - ss[c];
+        }
+    }
+}
+
+}  // namespace maptune::gp::detail
