@@ -2,14 +2,9 @@
 // The per-submap feature cache: an LruCache keyed by submap and per-submap parameters.
 
 #include <cstddef>
-#include <cstdint>
 #include <functional>
-#include <future>
-#include <list>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <unordered_map>
 
 #include "matcher/features.hpp"
 #include "matcher/lru_cache.hpp"

@@ -211,7 +211,13 @@ std::shared_ptr<const SubmapFeatures> Matcher::features(const dataset::Submap& s
                                                         const Deadline& deadline) {
     const double quantum = cache_.options().key_quantum;
     const MatcherParams q = quantize_feature_params(params, quantum);
-    const std::string key = feature_key(submap, q, settings_, quantum);
+    return features(submap, q, feature_key(submap, q, settings_, quantum), deadline);
+}
+
+std::shared_ptr<const SubmapFeatures> Matcher::features(const dataset::Submap& submap,
+                                                        const MatcherParams& q,
+                                                        const std::string& key,
+                                                        const Deadline& deadline) {
     return cache_.get_or_compute(key, [&] {
         const Deadline d =
             Deadline::earliest(deadline, Deadline::in(settings_.submap_time_limit_s));
@@ -271,8 +277,9 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
             feats[static_cast<std::size_t>(i)] = f;
             return;
         }
-        feats[static_cast<std::size_t>(i)] =
-            features(*submaps[static_cast<std::size_t>(i)], params, total);
+        feats[static_cast<std::size_t>(i)] = features(*submaps[static_cast<std::size_t>(i)],
+                                                      quantized, keys[static_cast<std::size_t>(i)],
+                                                      total);
     });
     const auto t_features = std::chrono::steady_clock::now();
 

@@ -69,6 +69,12 @@ class Matcher {
 
   private:
     int thread_count() const;
+    // Features by an already quantized parameter set and its cache key (match_pairs computes
+    // the keys once and also keys the neighbour lists by them).
+    std::shared_ptr<const SubmapFeatures> features(const dataset::Submap& submap,
+                                                   const MatcherParams& quantized,
+                                                   const std::string& key,
+                                                   const Deadline& deadline);
 
     // Neighbour lists of a pair, cached by both feature keys; null when the cache is off.
     std::shared_ptr<const NeighbourLists> neighbours(const SubmapFeatures& a,
