@@ -29,6 +29,9 @@ std::string matcher_version(const matcher::MatcherSettings& s) {
          << s.max_roll_pitch_rad << ',' << s.min_points << ',' << s.min_keypoints << ','
          << s.pair_time_limit_s << ',' << s.submap_time_limit_s << ',' << s.total_time_limit_s
          << ',' << s.seed << ',' << s.min_icp_inlier_fraction << ',' << s.min_ransac_inliers;
+    // Appended only when not the default, so keys of older observations stay valid.
+    if (s.consensus_from_n_TF) text << ",nTF";
+    if (s.ransac_threshold_from != matcher::MatcherSettings::ThresholdFrom::kVK) text << ",ransac_vTF";
     // The prefix counts code changes that alter results (2: ICP convergence epsilons).
     return "2-" + dataset::hex64(dataset::fnv1a(text.str())).substr(0, 8);
 }

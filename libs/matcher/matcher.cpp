@@ -140,13 +140,17 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
         pb.col(k) = b.keypoints.col(c.b);
     }
     const double ransac_thr =
-        settings.ransac_inlier_threshold_m > 0 ? settings.ransac_inlier_threshold_m : params.v_K;
+        settings.ransac_inlier_threshold_m > 0 ? settings.ransac_inlier_threshold_m
+        : settings.ransac_threshold_from == MatcherSettings::ThresholdFrom::kVTF ? params.v_TF
+                                                                                : params.v_K;
     const auto ransac =
         ransac_rigid(pa, pb, ransac_thr, settings.ransac_iterations, seed, deadline);
     if (ransac.timed_out) return finish(r, MatchStatus::kTimeout, "pair time limit in RANSAC", t0);
     r.ransac_inliers = static_cast<int>(ransac.inliers.size());
     if (!ransac.ok) return finish(r, MatchStatus::kNoMatch, "RANSAC found no rigid transform", t0);
-    if (r.ransac_inliers < settings.min_ransac_inliers)
+    const int min_inliers = settings.consensus_from_n_TF ? std::max(settings.min_ransac_inliers, params.n_TF)
+                                                         : settings.min_ransac_inliers;
+    if (r.ransac_inliers < min_inliers)
         return finish(r, MatchStatus::kNoMatch, "too few RANSAC inliers", t0);
     Eigen::Matrix4f T = ransac.T_a_b;
     r.grouping_s = seconds_since(t_group);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <functional>
 #include <sstream>
 
 namespace maptune::matcher {
@@ -62,6 +64,77 @@ std::string feature_settings_fingerprint(const MatcherSettings& s) {
        << '/' << s.min_points << '/' << s.min_keypoints << '/' << static_cast<int>(s.lrf_method)
        << '/' << s.icp_point_to_plane << '/' << s.icp_source_voxel_factor;
     return os.str();
+}
+
+
+std::string set_matcher_setting(MatcherSettings& s, const std::string& key, const std::string& value) {
+    auto number = [&](double lo, double hi, double& out) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(value.c_str(), &end);
+        if (value.empty() || end == value.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi) {
+            std::ostringstream msg;
+            msg << "matcher setting " << key << ": '" << value << "' is not a number in [" << lo << ", " << hi << "]";
+            return msg.str();
+        }
+        out = v;
+        return "";
+    };
+    auto real = [&](double& field, double lo, double hi) { return number(lo, hi, field); };
+    auto integer = [&](int& field, double lo, double hi) {
+        double v = 0;
+        auto err = number(lo, hi, v);
+        if (err.empty() && v != std::floor(v)) err = "matcher setting " + key + ": '" + value + "' is not an integer";
+        if (err.empty()) field = static_cast<int>(v);
+        return err;
+    };
+    auto boolean = [&](bool& field) -> std::string {
+        if (value == "true" || value == "1") field = true;
+        else if (value == "false" || value == "0") field = false;
+        else return "matcher setting " + key + ": '" + value + "' is not true or false";
+        return "";
+    };
+    const std::map<std::string, std::function<std::string()>> table{
+        {"outlier_removal", [&] { return boolean(s.outlier_removal); }},
+        {"outlier_mean_k", [&] { return integer(s.outlier_mean_k, 1, 1000); }},
+        {"outlier_stddev_mul", [&] { return real(s.outlier_stddev_mul, 0.01, 100); }},
+        {"surface_points_per_radius", [&] { return real(s.surface_points_per_radius, 1, 1000); }},
+        {"unknown_samples_per_diameter", [&] { return real(s.unknown_samples_per_diameter, 2, 256); }},
+        {"collinear_inlier_fraction", [&] { return real(s.collinear_inlier_fraction, 0, 1); }},
+        {"line_threshold_m", [&] { return real(s.line_threshold_m, 0, 100); }},
+        {"ransac_iterations", [&] { return integer(s.ransac_iterations, 1, 1e7); }},
+        {"ransac_inlier_threshold_m", [&] { return real(s.ransac_inlier_threshold_m, 0, 100); }},
+        {"icp_enabled", [&] { return boolean(s.icp_enabled); }},
+        {"icp_max_iterations", [&] { return integer(s.icp_max_iterations, 1, 1000); }},
+        {"icp_max_correspondence_m", [&] { return real(s.icp_max_correspondence_m, 0, 100); }},
+        {"icp_voxel_m", [&] { return real(s.icp_voxel_m, 0, 10); }},
+        {"icp_point_to_plane", [&] { return boolean(s.icp_point_to_plane); }},
+        {"icp_source_voxel_factor", [&] { return real(s.icp_source_voxel_factor, 0, 100); }},
+        {"max_roll_pitch_rad", [&] { return real(s.max_roll_pitch_rad, 0, M_PI); }},
+        {"min_icp_inlier_fraction", [&] { return real(s.min_icp_inlier_fraction, 0, 1); }},
+        {"min_ransac_inliers", [&] { return integer(s.min_ransac_inliers, 0, 1e6); }},
+        {"consensus_from_n_TF", [&] { return boolean(s.consensus_from_n_TF); }},
+        {"ransac_threshold_from", [&]() -> std::string {
+             if (value == "v_K") s.ransac_threshold_from = MatcherSettings::ThresholdFrom::kVK;
+             else if (value == "v_TF") s.ransac_threshold_from = MatcherSettings::ThresholdFrom::kVTF;
+             else return "matcher setting " + key + ": '" + value + "' is not v_K or v_TF";
+             return "";
+         }},
+        {"min_points", [&] { return integer(s.min_points, 0, 1e9); }},
+        {"min_keypoints", [&] { return integer(s.min_keypoints, 0, 1e9); }},
+        {"seed", [&] {
+             double v = 0;
+             auto err = number(0, 9.007199254740992e15, v);
+             if (err.empty()) s.seed = static_cast<std::uint64_t>(v);
+             return err;
+         }},
+    };
+    const auto it = table.find(key);
+    if (it == table.end()) {
+        std::string known;
+        for (const auto& [k, f] : table) known += (known.empty() ? "" : ", ") + k;
+        return "unknown matcher setting '" + key + "' (known: " + known + ")";
+    }
+    return it->second();
 }
 
 }  // namespace maptune::matcher

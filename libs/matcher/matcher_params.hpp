@@ -73,7 +73,12 @@ struct MatcherSettings {
     // Step 9: RANSAC rigid transform on the largest group, then ICP on the filtered clouds.
     int ransac_iterations = 10000;  // cap; stops earlier at 99.9 % confidence
     // Corresponding keypoints sit up to ~v_K/2 apart (voxel thinning), hence v_K-based defaults.
-    double ransac_inlier_threshold_m = 0.0;  // <= 0: use v_K
+    double ransac_inlier_threshold_m = 0.0;  // > 0: fixed; <= 0: from ransac_threshold_from
+    // Which parameter sets the RANSAC inlier threshold when it is not fixed: v_K (keypoint
+    // spacing, maptune's default) or v_TF (the Hough bin size, as PCL's Hough3DGrouping —
+    // the thesis's grouping — sets it: setInlierThreshold(hough_bin_size)).
+    enum class ThresholdFrom { kVK, kVTF };
+    ThresholdFrom ransac_threshold_from = ThresholdFrom::kVK;
     int icp_max_iterations = 15;  // point-to-plane converges in fewer on lab pairs (measured)
     double icp_max_correspondence_m = 0.0;  // <= 0: use 2 v_K
     // ICP clouds are voxelized at this leaf (<= 0: the filtered cloud as is). ICP dominates the
@@ -99,6 +104,10 @@ struct MatcherSettings {
     // On the simulated lab, wrong matches end with 7-38 inliers (median 18) and correct ones
     // with 10-245 (median 65), see BENCHMARKS.md; without it every pair "matches". 0 disables.
     int min_ransac_inliers = 12;
+    // The thesis names n_TF "TF estimation min correspondences": when true, the RANSAC
+    // transform must also explain at least n_TF correspondences (required inliers =
+    // max(min_ransac_inliers, n_TF)), so n_TF decides the match as its name says.
+    bool consensus_from_n_TF = false;
 
     // Robustness.
     int min_points = 10;                 // fewer points after filtering -> FAILED
@@ -113,5 +122,11 @@ struct MatcherSettings {
 
 // Settings that change per-submap features, as a string for the cache key.
 std::string feature_settings_fingerprint(const MatcherSettings& settings);
+
+// Sets one non-optimized setting by its field name ("min_ransac_inliers", "icp_enabled", ...)
+// from text, for experiment files and `--matcher KEY=VALUE`. Returns an error naming the key
+// and the value ("" when set); unknown keys list the known ones.
+std::string set_matcher_setting(MatcherSettings& settings, const std::string& key,
+                                const std::string& value);
 
 }  // namespace maptune::matcher

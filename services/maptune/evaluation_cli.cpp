@@ -1,6 +1,8 @@
 #ifdef MAPTUNE_HAVE_EVALUATION
 #include "evaluation_cli.hpp"
 
+#include "params/yaml_util.hpp"
+
 namespace maptune::cli {
 
 void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o) {
@@ -14,9 +16,16 @@ void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o) {
     cmd.add_option("--m-star", o.m_star, "m*, > 0 (default: pairs of the view with gt overlap >= 0.3)");
     cmd.add_option("--w-v", o.w_v, "weight of v in p, 0..1 (default: 0.5)")->check(CLI::Range(0.0, 1.0));
     cmd.add_option("--db", o.db, "observation store: reuse stored results and store new ones (default: none)");
-    cmd.add_option("--threads", o.threads, "matcher threads, 0 = all cores (default: 0)");
-    cmd.add_option("--pair-time-limit", o.pair_time_limit_s, "seconds per pair before TIMEOUT (default: 60)");
-    cmd.add_option("--time-limit", o.total_time_limit_s, "seconds per evaluation before TIMEOUT (default: 3600)");
+    add_matcher_options(cmd, o);
+}
+
+void add_matcher_options(CLI::App& cmd, EvaluationCliOptions& o) {
+    cmd.add_option("--threads", o.threads, "matcher threads, 0 = all cores")->capture_default_str();
+    cmd.add_option("--pair-time-limit", o.pair_time_limit_s, "seconds per pair before TIMEOUT")->capture_default_str();
+    cmd.add_option("--time-limit", o.total_time_limit_s, "seconds per evaluation before TIMEOUT")->capture_default_str();
+    cmd.add_option("--matcher", o.matcher_overrides,
+                   "non-optimized matcher setting KEY=VALUE (repeatable; e.g. min_ransac_inliers=8, "
+                   "docs/matcher.md); part of the observation key");
 }
 
 measure::MeasureSettings measure_settings(const EvaluationCliOptions& o,
@@ -33,6 +42,13 @@ matcher::MatcherSettings matcher_settings(const EvaluationCliOptions& o) {
     s.threads = o.threads;
     s.pair_time_limit_s = o.pair_time_limit_s;
     s.total_time_limit_s = o.total_time_limit_s;
+    for (const auto& kv : o.matcher_overrides) {
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos) throw params::ConfigError("--matcher " + kv + ": expected KEY=VALUE");
+        if (auto err = matcher::set_matcher_setting(s, kv.substr(0, eq), kv.substr(eq + 1)); !err.empty()) {
+            throw params::ConfigError("--matcher " + kv + ": " + err);
+        }
+    }
     return s;
 }
 

@@ -21,12 +21,16 @@ struct EvaluationCliOptions {
     std::string db;                     // optional observation store
     int threads = 0;
     double pair_time_limit_s = 60, total_time_limit_s = 3600;
+    std::vector<std::string> matcher_overrides;  // KEY=VALUE of matcher::MatcherSettings
 };
 
 void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o);
+// --threads, --pair-time-limit, --time-limit and --matcher KEY=VALUE (part of the above).
+void add_matcher_options(CLI::App& cmd, EvaluationCliOptions& o);
 // The measure settings: e* and m* given, or e* = 0.4 and m* derived from the view's overlaps.
 measure::MeasureSettings measure_settings(const EvaluationCliOptions& o,
                                           const std::vector<dataset::SubmapPair>& pairs);
+// Throws params::ConfigError for a bad --matcher KEY=VALUE.
 matcher::MatcherSettings matcher_settings(const EvaluationCliOptions& o);
 nlohmann::json report_json(const scoring::ScoreReport& r, double wall_seconds, bool per_pair);
 

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
 #ifdef MAPTUNE_HAVE_EVALUATION
     maptune::cli::add_evaluate_command(app, exit_code);
     maptune::cli::add_sweep_command(app, exit_code);
+    maptune::cli::add_compare_command(app, exit_code);
 #endif
 #ifdef MAPTUNE_HAVE_DATASET
     maptune::cli::add_dataset_command(app, exit_code);

@@ -48,15 +48,32 @@ void write_table(std::ostream& out, const Table& t, TableFormat format) {
     for (const auto& row : t.rows) {
         for (std::size_t c = 0; c < n && c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
     }
+    const bool md = format == TableFormat::kMarkdown;
     auto line = [&](const std::vector<std::string>& cells) {
         for (std::size_t c = 0; c < n; ++c) {
-            const std::string cell = c < cells.size() ? cells[c] : "";
-            const std::string pad(width[c] - cell.size(), ' ');
-            out << (c ? "  " : "") << (is_numeric(c) ? pad + cell : cell + (c + 1 < n ? pad : ""));
+            std::string cell = c < cells.size() ? cells[c] : "";
+            if (md) {  // a '|' inside a cell would split it
+                for (auto pos = cell.find('|'); pos != std::string::npos; pos = cell.find('|', pos + 2)) {
+                    cell.replace(pos, 1, "\\|");
+                }
+            }
+            const std::string pad(width[c] > cell.size() ? width[c] - cell.size() : 0, ' ');
+            if (md) {
+                out << (c ? " | " : "| ") << (is_numeric(c) ? pad + cell : cell + pad);
+            } else {
+                out << (c ? "  " : "") << (is_numeric(c) ? pad + cell : cell + (c + 1 < n ? pad : ""));
+            }
         }
-        out << "\n";
+        out << (md ? " |\n" : "\n");
     };
     line(t.columns);
+    if (md) {
+        for (std::size_t c = 0; c < n; ++c) {
+            const std::size_t w = std::max<std::size_t>(width[c], 3);
+            out << (c ? " | " : "| ") << (is_numeric(c) ? std::string(w - 1, '-') + ":" : std::string(w, '-'));
+        }
+        out << " |\n";
+    }
     for (const auto& row : t.rows) line(row);
 }
 

@@ -8,7 +8,7 @@
 
 namespace maptune::cli {
 
-enum class TableFormat { kTable, kCsv, kJson };
+enum class TableFormat { kTable, kCsv, kJson, kMarkdown };
 
 struct Table {
     std::vector<std::string> columns;

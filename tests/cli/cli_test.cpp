@@ -181,4 +181,55 @@ TEST_F(CliTest, HelpAndUsageErrors) {
     EXPECT_EQ(bad.exit_code, 2);
 }
 
+#ifdef MAPTUNE_CLI_HAS_EVALUATION
+// `maptune compare` end to end on a tiny simulated lab: two sets in a known order (x_1D
+// filters every keypoint), Table 5.2 layout in markdown with the reference column and tau,
+// JSON, and a second run answered from the store.
+TEST_F(CliTest, CompareTwoSetsTableJsonAndStore) {
+    const std::string ds = (dir_ / "tiny").string();
+    const CliRun gen = maptune("dataset generate --preset lab-tiny --runs 1 --submaps 4 --seed 5 --out " + ds);
+    ASSERT_EQ(gen.exit_code, 0) << gen.err;
+    std::ofstream(dir_ / "ref.yaml") << "reference:\n  lab:\n    m_star_per_pair: 0.5\n"
+                                        "    scores: {x_baseline: 0.53, x_1D: 0.0}\n";
+    const std::string common = "compare --params configs/params/x_baseline.yaml configs/params/x_1D.yaml --on small=" +
+                               ds + ":complete:gt --reference-scores " + (dir_ / "ref.yaml").string() +
+                               " --db " + (dir_ / "obs.db").string() + " --threads 2";
+    const CliRun md = maptune(common);
+    ASSERT_EQ(md.exit_code, 0) << md.err;
+    EXPECT_NE(md.out.find("| set "), std::string::npos) << md.out;
+    EXPECT_NE(md.out.find("small p"), std::string::npos) << md.out;
+    EXPECT_NE(md.out.find("small ref p"), std::string::npos) << md.out;
+    EXPECT_NE(md.out.find("| kendall_tau"), std::string::npos) << md.out;
+    EXPECT_NE(md.out.find("Kendall's tau-b vs reference 'lab': 1.00"), std::string::npos) << md.out;
+    EXPECT_NE(md.out.find("m* 3.0"), std::string::npos) << md.out;  // 0.5 x 6 pairs
+    EXPECT_NE(md.out.find("2 evaluated"), std::string::npos) << md.out;
+
+    const CliRun js = maptune(common + " --format json");
+    ASSERT_EQ(js.exit_code, 0) << js.err;
+    const auto j = nlohmann::json::parse(js.out);
+    ASSERT_EQ(j["views"].size(), 1u);
+    const auto& v = j["views"][0];
+    EXPECT_EQ(v["label"], "small");
+    EXPECT_EQ(v["pairs"], 6);
+    EXPECT_DOUBLE_EQ(v["kendall_tau"].get<double>(), 1.0);
+    ASSERT_EQ(v["sets"].size(), 2u);
+    EXPECT_EQ(v["sets"][0]["set"], "x_baseline");
+    EXPECT_TRUE(v["sets"][0]["from_store"].get<bool>());
+    EXPECT_GT(v["sets"][0]["p"].get<double>(), v["sets"][1]["p"].get<double>());
+    EXPECT_EQ(v["sets"][1]["m"], 0);
+
+    const CliRun csv = maptune(common + " --format csv");
+    ASSERT_EQ(csv.exit_code, 0) << csv.err;
+    EXPECT_EQ(csv.out.rfind("set,small p,small m,", 0), 0u) << csv.out;
+
+    const CliRun bad = maptune("compare --params configs/params/x_baseline.yaml --on " + ds + ":sideways");
+    EXPECT_EQ(bad.exit_code, 2);
+    EXPECT_NE(bad.err.find("sideways"), std::string::npos) << bad.err;
+    const CliRun bad_setting = maptune("compare --params configs/params/x_baseline.yaml --on " + ds +
+                                       " --no-db --matcher min_ransac_inliers=-3");
+    EXPECT_EQ(bad_setting.exit_code, 2);
+    EXPECT_NE(bad_setting.err.find("min_ransac_inliers"), std::string::npos) << bad_setting.err;
+}
+#endif
+
 }  // namespace
