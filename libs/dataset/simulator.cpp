@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <map>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <tuple>
@@ -65,6 +67,107 @@ SimConfig sim_preset(const std::string& name) {
 }
 
 std::vector<std::string> sim_preset_names() { return {"lab", "moon", "lab-tiny", "moon-tiny"}; }
+
+namespace {
+
+struct SimField {
+    double* real = nullptr;
+    int* integer = nullptr;
+    double lo = 0, hi = 0;
+};
+
+// The one list of fields `--sim` may set, with their valid ranges.
+std::map<std::string, SimField> sim_fields(SimConfig& c) {
+    auto r = [](double& f, double lo, double hi) { return SimField{&f, nullptr, lo, hi}; };
+    auto i = [](int& f, double lo, double hi) { return SimField{nullptr, &f, lo, hi}; };
+    return {
+        {"world_size", r(c.world_size, 2, 1000)},
+        {"rocks", i(c.rocks, 0, 100000)},
+        {"craters", i(c.craters, 0, 100000)},
+        {"image_width", i(c.image_width, 8, 4096)},
+        {"image_height", i(c.image_height, 8, 4096)},
+        {"hfov_deg", r(c.hfov_deg, 1, 170)},
+        {"vfov_deg", r(c.vfov_deg, 1, 170)},
+        {"baseline_m", r(c.baseline_m, 0.001, 10)},
+        {"focal_px", r(c.focal_px, 1, 1e5)},
+        {"disparity_sigma_px", r(c.disparity_sigma_px, 0, 10)},
+        {"camera_height_m", r(c.camera_height_m, 0.05, 10)},
+        {"tilt_deg", r(c.tilt_deg, -90, 90)},
+        {"max_range_m", r(c.max_range_m, 0.2, 1000)},
+        {"hole_probability", r(c.hole_probability, 0, 0.99)},
+        {"frame_step_m", r(c.frame_step_m, 0.01, 10)},
+        {"path_wander", r(c.path_wander, 0, 10)},
+        {"submap_distance_m", r(c.submap_distance_m, 0.05, 1000)},
+        {"submap_sigma_m", r(c.submap_sigma_m, 0.001, 100)},
+        {"voxel_m", r(c.voxel_m, 0.005, 10)},
+        {"octomap_resolution_m", r(c.octomap_resolution_m, 0.005, 10)},
+        {"octomap_pixel_stride", i(c.octomap_pixel_stride, 1, 64)},
+        {"obstacle_max_height_m", r(c.obstacle_max_height_m, 0, 10)},
+        {"sigma_x", r(c.sigma_x, 0, 10)},
+        {"sigma_y", r(c.sigma_y, 0, 10)},
+        {"sigma_yaw", r(c.sigma_yaw, 0, 10)},
+        {"sigma_roll_pitch", r(c.sigma_roll_pitch, 0, 10)},
+        {"scale_bias_sigma", r(c.scale_bias_sigma, 0, 1)},
+    };
+}
+
+bool parse_double(const std::string& text, double& out) {
+    char* end = nullptr;
+    out = std::strtod(text.c_str(), &end);
+    return !text.empty() && end != text.c_str() && *end == '\0' && std::isfinite(out);
+}
+
+std::string format_number(double v) {
+    std::ostringstream os;
+    os.precision(12);
+    os << v;
+    return os.str();
+}
+
+}  // namespace
+
+std::string set_sim_option(SimConfig& c, const std::string& key, const std::string& value) {
+    if (key == "pan_sweep_deg") {
+        std::vector<double> sweep;
+        std::stringstream in(value);
+        for (std::string item; std::getline(in, item, ',');) {
+            double v = 0;
+            if (!parse_double(item, v) || v < -180 || v > 180) {
+                return "--sim pan_sweep_deg: '" + item + "' is not an angle in [-180, 180] degrees";
+            }
+            sweep.push_back(v);
+        }
+        if (sweep.empty()) return "--sim pan_sweep_deg: expected a comma-separated list of angles";
+        c.pan_sweep_deg = sweep;
+        return "";
+    }
+    auto fields = sim_fields(c);
+    const auto it = fields.find(key);
+    if (it == fields.end()) {
+        std::string known = "pan_sweep_deg";
+        for (const auto& [k, f] : fields) known += ", " + k;
+        return "--sim: unknown simulator setting '" + key + "' (known: " + known + ")";
+    }
+    const SimField& f = it->second;
+    double v = 0;
+    if (!parse_double(value, v) || v < f.lo || v > f.hi || (f.integer && v != std::floor(v))) {
+        return "--sim " + key + ": '" + value + "' is not " + (f.integer ? "an integer" : "a number") + " in [" +
+               format_number(f.lo) + ", " + format_number(f.hi) + "]";
+    }
+    if (f.real) *f.real = v;
+    else *f.integer = static_cast<int>(v);
+    return "";
+}
+
+std::vector<std::string> sim_options(const SimConfig& config) {
+    SimConfig c = config;
+    std::vector<std::string> out;
+    for (const auto& [k, f] : sim_fields(c)) out.push_back(k + "=" + format_number(f.real ? *f.real : *f.integer));
+    std::string sweep;
+    for (double a : c.pan_sweep_deg) sweep += (sweep.empty() ? "" : ",") + format_number(a);
+    out.push_back("pan_sweep_deg=" + sweep);
+    return out;
+}
 
 namespace {
 
@@ -756,6 +859,9 @@ std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overw
     writer.set_meta("submap_distance_m", std::to_string(c.submap_distance_m));
     writer.set_meta("obstacle_max_height_m", std::to_string(c.obstacle_max_height_m));
     writer.set_meta("obstacle_top_surface", c.obstacle_top_surface ? "true" : "false");
+    std::string all;
+    for (const auto& kv : sim_options(c)) all += (all.empty() ? "" : " ") + kv;
+    writer.set_meta("sim", all);  // every setting, so a dataset documents how it was made
     std::atomic<int> next{0}, done{0};
     std::mutex progress_mutex;
     std::exception_ptr error;

@@ -54,6 +54,13 @@ struct SimConfig {
     int threads = 0;                // 0 = hardware concurrency; output does not depend on it
 };
 
+// Sets one numeric field of SimConfig by name ("world_size", "max_range_m", "voxel_m", ...;
+// "pan_sweep_deg" takes a comma-separated list), for `dataset generate --sim KEY=VALUE`.
+// Returns an error naming the key and value ("" when set); unknown keys list the known ones.
+std::string set_sim_option(SimConfig& config, const std::string& key, const std::string& value);
+// Every settable field as "key=value", in name order (written to the manifest's meta).
+std::vector<std::string> sim_options(const SimConfig& config);
+
 // Presets "lab" (13 runs x 15 submaps) and "moon" (40 x 40); "lab-tiny" and "moon-tiny"
 // for tests. Throws std::invalid_argument naming the preset when unknown.
 SimConfig sim_preset(const std::string& name);

@@ -71,6 +71,7 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
         std::string preset, world, out;
         int runs = -1, submaps = -1, threads = 0;
         double obstacle_max_height = -1;
+        std::vector<std::string> sim;  // KEY=VALUE overrides of the preset
         std::uint64_t seed = 1;
         bool force = false;
     };
@@ -91,6 +92,9 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
                     "obstacle points only up to this height above the ground [m], 0..10 (0 = no limit); "
                     "default 0.6")
         ->check(CLI::Range(0.0, 10.0));
+    gen->add_option("--sim", g->sim,
+                    "simulator setting KEY=VALUE over the preset (repeatable), e.g. world_size=12, "
+                    "max_range_m=5, pan_sweep_deg=-45,0,45; docs/datasets.md lists them");
     gen->add_flag("--force", g->force, "replace an existing output directory");
     gen->callback([g, &exit_code]() {
         guarded(exit_code, [&]() {
@@ -106,6 +110,13 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
             if (g->runs > 0) c.runs = g->runs;
             if (g->submaps > 0) c.submaps = g->submaps;
             if (g->obstacle_max_height >= 0) c.obstacle_max_height_m = g->obstacle_max_height;
+            for (const auto& kv : g->sim) {
+                const auto eq = kv.find('=');
+                if (eq == std::string::npos) throw std::invalid_argument("--sim " + kv + ": expected KEY=VALUE");
+                if (auto err = ds::set_sim_option(c, kv.substr(0, eq), kv.substr(eq + 1)); !err.empty()) {
+                    throw std::invalid_argument(err);
+                }
+            }
             c.seed = g->seed;
             c.threads = g->threads;
             const auto t0 = std::chrono::steady_clock::now();

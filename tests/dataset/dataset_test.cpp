@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <fstream>
 
 #include "dataset/dataset.hpp"
@@ -86,6 +87,27 @@ TEST(SimulatorTest, UnknownPresetIsAnError) {
     const fs::path out = temp_root() / "mars";
     EXPECT_NE(error_of([&] { generate_dataset(c, out); }).find("unknown world 'mars'"), std::string::npos);
     EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(SimulatorTest, SimOptionsSetFieldsAndRejectBadValuesByName) {
+    SimConfig c = sim_preset("lab");
+    EXPECT_EQ(set_sim_option(c, "world_size", "12"), "");
+    EXPECT_DOUBLE_EQ(c.world_size, 12.0);
+    EXPECT_EQ(set_sim_option(c, "image_width", "224"), "");
+    EXPECT_EQ(c.image_width, 224);
+    EXPECT_EQ(set_sim_option(c, "pan_sweep_deg", "-30,0,30"), "");
+    EXPECT_EQ(c.pan_sweep_deg, (std::vector<double>{-30, 0, 30}));
+    const std::string unknown = set_sim_option(c, "colour", "red");
+    EXPECT_NE(unknown.find("colour"), std::string::npos);
+    EXPECT_NE(unknown.find("max_range_m"), std::string::npos) << unknown;  // lists the known keys
+    EXPECT_NE(set_sim_option(c, "image_width", "10.5").find("integer"), std::string::npos);
+    EXPECT_NE(set_sim_option(c, "voxel_m", "-1").find("voxel_m"), std::string::npos);
+    EXPECT_NE(set_sim_option(c, "voxel_m", "nan"), "");
+    EXPECT_NE(set_sim_option(c, "pan_sweep_deg", "0,x"), "");
+    EXPECT_DOUBLE_EQ(c.voxel_m, sim_preset("lab").voxel_m);  // failed sets change nothing
+    const auto all = sim_options(c);
+    EXPECT_NE(std::find(all.begin(), all.end(), "world_size=12"), all.end());
+    EXPECT_NE(std::find(all.begin(), all.end(), "pan_sweep_deg=-30,0,30"), all.end());
 }
 
 TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {
