@@ -365,6 +365,29 @@ std::vector<SubmapPair> Dataset::pairs(View view, Reference reference) const {
     return out;
 }
 
+std::vector<double> Dataset::reference_overlaps(const std::vector<SubmapPair>& pairs,
+                                                Reference reference) const {
+    std::vector<double> out;
+    out.reserve(pairs.size());
+    if (reference == Reference::gt) {
+        for (const auto& p : pairs) out.push_back(p.overlap);
+        return out;
+    }
+    std::map<std::pair<int, int>, std::vector<std::uint64_t>> keys;  // per submap, by odometry
+    auto keys_of = [&](int run, int index) -> const std::vector<std::uint64_t>& {
+        auto& k = keys[{run, index}];
+        if (k.empty()) {
+            const RunRecord& r = manifest_.runs.at(static_cast<std::size_t>(run));
+            const SubmapRecord& s = r.submaps.at(static_cast<std::size_t>(index));
+            k = world_voxel_keys(read_cloud(dir_ / s.cloud), r.odometry.at(static_cast<std::size_t>(index)).T,
+                                 static_cast<float>(manifest_.overlap_voxel));
+        }
+        return k;
+    };
+    for (const auto& p : pairs) out.push_back(overlap_ratio(keys_of(p.run, p.a), keys_of(p.run, p.b)));
+    return out;
+}
+
 Submap Dataset::load_submap(int run, int index) const {
     if (run < 0 || run >= static_cast<int>(manifest_.runs.size())) {
         throw DatasetError(dir_, "no run " + std::to_string(run));

@@ -135,6 +135,11 @@ public:
     std::size_t num_submaps() const;
 
     std::vector<SubmapPair> pairs(View view, Reference reference) const;
+    // Overlap of each pair (|A ∩ B| / min(|A|, |B|) of voxel sets at the manifest's
+    // overlap_voxel) with both clouds placed by the `reference` poses. gt: the stored values.
+    // odometry: computed from the clouds and odometry poses only — what a robot without
+    // ground truth knows (it reads the cloud of every submap of `pairs`).
+    std::vector<double> reference_overlaps(const std::vector<SubmapPair>& pairs, Reference reference) const;
     // Loads clouds, obstacles and OctoMap; throws DatasetError on bad files.
     Submap load_submap(int run, int index) const;
     Submap load_submap(const std::string& id) const;

@@ -195,8 +195,8 @@ CompareResult compare(const params::ParameterSpace& space, const std::vector<Nam
             col.m_star_rule = params::format_double(f) + " x " + std::to_string(pairs.size()) + " pairs" +
                               (t.m_star_per_pair ? "" : " (reference " + ref->name + ")");
         } else {
-            col.settings.m_star = scoring::derive_m_star(pairs);
-            col.m_star_rule = "pairs with gt overlap >= 0.3";
+            col.settings.m_star = scoring::derive_m_star(ds.reference_overlaps(pairs, t.reference));
+            col.m_star_rule = std::string("pairs with ") + dataset::to_string(t.reference) + " overlap >= 0.3";
         }
         if (auto bad = measure::check_settings(col.settings); !bad.empty()) {
             throw ConfigError("target '" + t.label + "': " + bad);

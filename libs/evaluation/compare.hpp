@@ -98,7 +98,8 @@ struct CompareOptions {
 };
 
 // Scores every set on every target. m* per target: its own m_star, else its m_star_per_pair,
-// else the reference column's m_star_per_pair, else scoring::derive_m_star of the view.
+// else the reference column's m_star_per_pair, else scoring::derive_m_star of the view's
+// overlaps under its own reference (Dataset::reference_overlaps).
 // Throws params::ConfigError for bad settings (m* <= 0, unknown dataset) before evaluating.
 CompareResult compare(const params::ParameterSpace& space,
                       const std::vector<NamedParameterSet>& sets,

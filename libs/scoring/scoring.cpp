@@ -29,10 +29,17 @@ Eigen::Isometry3d to_isometry(const Eigen::Matrix4d& m) {
 
 std::string pair_id(const dataset::SubmapPair& pair) { return pair.id_a + "|" + pair.id_b; }
 
-double derive_m_star(const std::vector<dataset::SubmapPair>& pairs, double min_overlap) {
+double derive_m_star(const std::vector<double>& overlaps, double min_overlap) {
     std::size_t n = 0;
-    for (const auto& p : pairs) n += p.overlap >= min_overlap ? 1 : 0;
+    for (double o : overlaps) n += o >= min_overlap ? 1 : 0;
     return static_cast<double>(std::max<std::size_t>(n, 1));
+}
+
+double derive_m_star(const std::vector<dataset::SubmapPair>& pairs, double min_overlap) {
+    std::vector<double> overlaps;
+    overlaps.reserve(pairs.size());
+    for (const auto& p : pairs) overlaps.push_back(p.overlap);
+    return derive_m_star(overlaps, min_overlap);
 }
 
 ScoreReport score_observation(const dataset::Dataset& dataset,

@@ -19,6 +19,9 @@ std::string pair_id(const dataset::SubmapPair& pair);
 // whose ground-truth overlap is at least `min_overlap` — the matches a good matcher can find.
 // At least 1.
 double derive_m_star(const std::vector<dataset::SubmapPair>& pairs, double min_overlap = 0.3);
+// The same count over overlaps from the view's own reference (Dataset::reference_overlaps):
+// with odometry as reference, m* never uses ground truth (`m_star: auto`, docs/optimizer.md).
+double derive_m_star(const std::vector<double>& overlaps, double min_overlap = 0.3);
 
 struct ErrorStats {
     double mean = 0, median = 0, p90 = 0, max = 0;  // over matched pairs

@@ -4,6 +4,7 @@
 
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <sstream>
 
 #include "bo/optimizer.hpp"
@@ -176,11 +177,26 @@ RunSummary OptimizerService::run() {
     const auto ds = mirror_.open(dataset_id, options_.wait_s, &error);
     if (!ds) throw std::runtime_error("optimizer: " + error);
     const auto pairs = ds->pairs(dataset::parse_view(e.view), dataset::parse_reference(e.reference));
-    summary.m_star = e.m_star ? *e.m_star : scoring::derive_m_star(pairs);
+    if (e.m_star) {
+        summary.m_star = *e.m_star;
+    } else {
+        // m_star: auto counts pairs that overlap under the experiment's own reference: with
+        // odometry, the clouds placed by odometry poses — never ground truth.
+        const auto reference = dataset::parse_reference(e.reference);
+        if (reference == dataset::Reference::odometry) {
+            std::set<std::string> ids;
+            for (const auto& p : pairs) ids.insert({p.id_a, p.id_b});
+            if (!mirror_.ensure_submaps(*ds, {ids.begin(), ids.end()}, options_.wait_s, &error)) {
+                throw std::runtime_error("optimizer: m_star auto needs the submap clouds: " + error);
+            }
+        }
+        summary.m_star = scoring::derive_m_star(ds->reference_overlaps(pairs, reference));
+    }
     const measure::MeasureSettings settings{e.e_star, summary.m_star, e.w_v};
     log("experiment " + options_.experiment_id + ": dataset " + ds->manifest().name + " (" + dataset_id +
         "), view " + e.view + "/" + e.reference + ", " + std::to_string(pairs.size()) + " pairs, m* = " +
-        fmt(summary.m_star, 1) + (e.m_star ? "" : " (derived: pairs with overlap >= 0.3)") + ", budget " +
+        fmt(summary.m_star, 1) +
+        (e.m_star ? "" : " (auto: pairs with " + e.reference + " overlap >= 0.3)") + ", budget " +
         std::to_string(e.max_evaluations) + " evaluations");
 
     // A compatible worker tells us the matcher version (part of every observation key).

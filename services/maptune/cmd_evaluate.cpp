@@ -24,7 +24,7 @@ void add_evaluate_command(CLI::App& app, int& exit_code) {
             const auto ds = dataset::Dataset::open(opt->dataset);
             const auto view = dataset::parse_view(opt->view);
             const auto pairs = ds.pairs(view, dataset::parse_reference(opt->reference));
-            const auto settings = measure_settings(*opt, pairs);
+            const auto settings = measure_settings(*opt, ds, pairs);
             if (auto bad = measure::check_settings(settings); !bad.empty()) throw params::ConfigError(bad);
             std::unique_ptr<store::ObservationStore> db;
             if (!opt->db.empty()) db = std::make_unique<store::ObservationStore>(opt->db);

@@ -34,7 +34,7 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
             const auto ds = dataset::Dataset::open(opt->dataset);
             const auto view = dataset::parse_view(opt->view);
             const auto pairs = ds.pairs(view, dataset::parse_reference(opt->reference));
-            const auto settings = measure_settings(*opt, pairs);
+            const auto settings = measure_settings(*opt, ds, pairs);
             std::unique_ptr<store::ObservationStore> db;
             if (!opt->db.empty()) db = std::make_unique<store::ObservationStore>(opt->db);
             evaluation::Evaluator evaluator(ds, space, matcher_settings(*opt));

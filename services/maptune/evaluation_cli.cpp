@@ -28,11 +28,12 @@ void add_matcher_options(CLI::App& cmd, EvaluationCliOptions& o) {
                    "docs/matcher.md); part of the observation key");
 }
 
-measure::MeasureSettings measure_settings(const EvaluationCliOptions& o,
+measure::MeasureSettings measure_settings(const EvaluationCliOptions& o, const dataset::Dataset& ds,
                                           const std::vector<dataset::SubmapPair>& pairs) {
     measure::MeasureSettings s;
     s.e_star = o.e_star.value_or(0.4);
-    s.m_star = o.m_star ? *o.m_star : scoring::derive_m_star(pairs);
+    s.m_star = o.m_star ? *o.m_star
+                        : scoring::derive_m_star(ds.reference_overlaps(pairs, dataset::parse_reference(o.reference)));
     s.w_v = o.w_v;
     return s;
 }

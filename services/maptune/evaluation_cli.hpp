@@ -27,8 +27,9 @@ struct EvaluationCliOptions {
 void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o);
 // --threads, --pair-time-limit, --time-limit and --matcher KEY=VALUE (part of the above).
 void add_matcher_options(CLI::App& cmd, EvaluationCliOptions& o);
-// The measure settings: e* and m* given, or e* = 0.4 and m* derived from the view's overlaps.
-measure::MeasureSettings measure_settings(const EvaluationCliOptions& o,
+// The measure settings: e* and m* given, or e* = 0.4 and m* derived from the view's overlaps
+// under its own reference (odometry overlaps for --reference odometry: no ground truth).
+measure::MeasureSettings measure_settings(const EvaluationCliOptions& o, const dataset::Dataset& ds,
                                           const std::vector<dataset::SubmapPair>& pairs);
 // Throws params::ConfigError for a bad --matcher KEY=VALUE.
 matcher::MatcherSettings matcher_settings(const EvaluationCliOptions& o);

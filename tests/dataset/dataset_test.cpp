@@ -9,6 +9,7 @@
 #include "dataset/dataset.hpp"
 #include "dataset/geometry.hpp"
 #include "dataset/importer.hpp"
+#include "dataset/io.hpp"
 #include "dataset/render.hpp"
 #include "dataset/simulator.hpp"
 
@@ -89,6 +90,8 @@ TEST(SimulatorTest, UnknownPresetIsAnError) {
     EXPECT_FALSE(fs::exists(out));
 }
 
+std::string d_run0_odometry() { return Dataset::open(lab_tiny()).manifest().runs.at(0).odometry_file; }
+
 TEST(SimulatorTest, SimOptionsSetFieldsAndRejectBadValuesByName) {
     SimConfig c = sim_preset("lab");
     EXPECT_EQ(set_sim_option(c, "world_size", "12"), "");
@@ -128,6 +131,45 @@ TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {
     // An existing output is not overwritten silently.
     EXPECT_NE(error_of([&] { generate_dataset(sim_preset("lab-tiny"), lab_tiny()); }).find("already exists"),
               std::string::npos);
+}
+
+// m* without ground truth: overlaps under the odometry reference come from the clouds and
+// the odometry poses only. Moving one submap's odometry pose far away empties its overlaps
+// while the stored gt overlaps stay.
+TEST(DatasetTest, ReferenceOverlapsUseOnlyTheChosenPoses) {
+    const fs::path copy = temp_root() / "overlap_copy";
+    fs::remove_all(copy);
+    fs::copy(lab_tiny(), copy, fs::copy_options::recursive);
+    {
+        const Dataset d = Dataset::open(copy);
+        const auto pairs = d.pairs(View::complete, Reference::odometry);
+        const auto gt = d.reference_overlaps(pairs, Reference::gt);
+        const auto odom = d.reference_overlaps(pairs, Reference::odometry);
+        ASSERT_EQ(gt.size(), pairs.size());
+        ASSERT_EQ(odom.size(), pairs.size());
+        for (std::size_t i = 0; i < pairs.size(); ++i) {
+            EXPECT_DOUBLE_EQ(gt[i], pairs[i].overlap);
+            EXPECT_GE(odom[i], 0.0);
+            EXPECT_LE(odom[i], 1.0);
+            // Odometry drifts by centimetres between these submaps: nearly the gt overlap.
+            EXPECT_NEAR(odom[i], gt[i], 0.25) << pairs[i].id_a << " " << pairs[i].id_b;
+        }
+    }
+    const fs::path odom_file = copy / d_run0_odometry();
+    auto poses = read_tum(odom_file);
+    ASSERT_GE(poses.size(), 2u);
+    poses[1].T.translation().x() += 500.0;
+    std::ofstream(odom_file, std::ios::trunc) << format_tum(poses);
+    const Dataset d = Dataset::open(copy);
+    const auto pairs = d.pairs(View::complete, Reference::odometry);
+    const auto gt = d.reference_overlaps(pairs, Reference::gt);
+    const auto odom = d.reference_overlaps(pairs, Reference::odometry);
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+        if (pairs[i].run == 0 && (pairs[i].a == 1 || pairs[i].b == 1)) {
+            EXPECT_EQ(odom[i], 0.0);
+            EXPECT_GT(gt[i], 0.0);
+        }
+    }
 }
 
 TEST(DatasetTest, ViewsAndReferenceTransforms) {

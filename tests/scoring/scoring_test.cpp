@@ -101,7 +101,9 @@ TEST_F(ScoringTest, MStarIsDerivedFromOverlappingPairs) {
     std::size_t n = 0;
     for (const auto& p : pairs) n += p.overlap >= 0.3 ? 1 : 0;
     EXPECT_EQ(derive_m_star(pairs), static_cast<double>(std::max<std::size_t>(n, 1)));
-    EXPECT_EQ(derive_m_star({}), 1.0);
+    EXPECT_EQ(derive_m_star(std::vector<dataset::SubmapPair>{}), 1.0);
+    EXPECT_EQ(derive_m_star(std::vector<double>{0.1, 0.3, 0.9, 0.29}), 2.0);
+    EXPECT_EQ(derive_m_star(std::vector<double>{0.1, 0.3, 0.9}, 0.05), 3.0);
 }
 
 }  // namespace
