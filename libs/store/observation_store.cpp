@@ -376,6 +376,36 @@ std::vector<Observation> ObservationStore::list(const ObservationFilter& filter)
     return impl_->query(where, binds, filter.ranges, filter.limit);
 }
 
+bool ObservationStore::remove(std::int64_t row_id) {
+    const std::string& path = impl_->path;
+    impl_->exec("BEGIN IMMEDIATE");
+    try {
+        Statement par(impl_->db, "DELETE FROM observation_params WHERE observation_id = ?", path);
+        par.bind(1, row_id);
+        par.step(path);
+        Statement obs(impl_->db, "DELETE FROM observations WHERE id = ?", path);
+        obs.bind(1, row_id);
+        obs.step(path);
+        const bool removed = sqlite3_changes(impl_->db) > 0;
+        impl_->exec("COMMIT");
+        return removed;
+    } catch (...) {
+        sqlite3_exec(impl_->db, "ROLLBACK", nullptr, nullptr, nullptr);
+        throw;
+    }
+}
+
+ObservationStore::ImportStats ObservationStore::import_from(const ObservationStore& other) {
+    ImportStats stats;
+    for (auto& o : other.list()) {
+        ++stats.read;
+        o.row_id = 0;  // keeps created_unix_ms: when the matcher ran
+        if (put(o)) ++stats.imported;
+        else ++stats.already_present;
+    }
+    return stats;
+}
+
 std::size_t ObservationStore::count() const {
     Statement st(impl_->db, "SELECT COUNT(*) FROM observations", impl_->path);
     return st.step(impl_->path) ? static_cast<std::size_t>(sqlite3_column_int64(st.get(), 0)) : 0;

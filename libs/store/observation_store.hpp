@@ -83,6 +83,15 @@ public:
     bool put(const Observation& observation);
     std::vector<Observation> list(const ObservationFilter& filter = {}) const;
     std::size_t count() const;
+    // Deletes the observation with this row id (and its parameter index rows) in one
+    // transaction; false when there is none. A later request for its key runs the matcher again.
+    bool remove(std::int64_t row_id);
+    struct ImportStats {
+        std::size_t read = 0, imported = 0, already_present = 0;
+    };
+    // Copies every observation of `other` whose key this store lacks (keys are content
+    // hashes, so stores of other machines or runs merge without conflicts).
+    ImportStats import_from(const ObservationStore& other);
     const std::string& path() const;
 
 private:

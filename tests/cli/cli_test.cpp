@@ -222,6 +222,34 @@ TEST_F(CliTest, CompareTwoSetsTableJsonAndStore) {
     ASSERT_EQ(csv.exit_code, 0) << csv.err;
     EXPECT_EQ(csv.out.rfind("set,small p,small m,", 0), 0u) << csv.out;
 
+    // The same store through `trials`: scored with the same m*, the best set first; removal
+    // and import between stores.
+    const std::string db = (dir_ / "obs.db").string();
+    const CliRun best = maptune("trials --db " + db + " --score-on " + ds + " --m-star 3 --best 1 -f json");
+    ASSERT_EQ(best.exit_code, 0) << best.err;
+    const auto rows = nlohmann::json::parse(best.out);
+    ASSERT_EQ(rows.size(), 1u);
+    EXPECT_NEAR(rows[0]["p"].get<double>(), v["sets"][0]["p"].get<double>(), 1e-4);
+    EXPECT_EQ(rows[0]["m"], v["sets"][0]["m"]);
+    EXPECT_NEAR(rows[0]["v_K"].get<double>(), 0.1, 1e-12);  // x_baseline
+    const CliRun by_p = maptune("trials --db " + db + " --score-on " + ds + " --sort p -f csv");
+    ASSERT_EQ(by_p.exit_code, 0) << by_p.err;
+    EXPECT_NE(by_p.out.find(",p,m,eps,v,"), std::string::npos) << by_p.out;
+    EXPECT_EQ(maptune("trials --db " + db + " --best 1").exit_code, 2);  // needs --score-on
+
+    const std::string copy = (dir_ / "copy.db").string();
+    const CliRun imp = maptune("trials --db " + copy + " --import " + db);
+    ASSERT_EQ(imp.exit_code, 0) << imp.err;
+    EXPECT_NE(imp.out.find("imported 2 of 2"), std::string::npos) << imp.out;
+    const CliRun again = maptune("trials --db " + copy + " --import " + db);
+    EXPECT_NE(again.out.find("imported 0 of 2 observations"), std::string::npos) << again.out;
+    const std::string id = std::to_string(rows[0]["id"].get<int>());
+    const CliRun rm = maptune("trials --db " + copy + " --remove " + id);
+    ASSERT_EQ(rm.exit_code, 0) << rm.err;
+    EXPECT_EQ(maptune("trials --db " + copy + " --remove " + id).exit_code, 2);  // gone
+    const auto left = nlohmann::json::parse(maptune("trials --db " + copy + " -f json").out);
+    EXPECT_EQ(left.size(), 1u);
+
     const CliRun bad = maptune("compare --params configs/params/x_baseline.yaml --on " + ds + ":sideways");
     EXPECT_EQ(bad.exit_code, 2);
     EXPECT_NE(bad.err.find("sideways"), std::string::npos) << bad.err;
