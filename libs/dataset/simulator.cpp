@@ -103,6 +103,7 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"octomap_resolution_m", r(c.octomap_resolution_m, 0.005, 10)},
         {"octomap_pixel_stride", i(c.octomap_pixel_stride, 1, 64)},
         {"obstacle_max_height_m", r(c.obstacle_max_height_m, 0, 10)},
+        {"obstacle_cell_m", r(c.obstacle_cell_m, 0, 10)},
         {"sigma_x", r(c.sigma_x, 0, 10)},
         {"sigma_y", r(c.sigma_y, 0, 10)},
         {"sigma_yaw", r(c.sigma_yaw, 0, 10)},
@@ -824,7 +825,9 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
         hs.step = world.lab() ? 0.1f : 0.15f;
         hs.negative_drop = world.lab() ? 0.15f : 0.25f;
         hs.max_height = static_cast<float>(c.obstacle_max_height_m);
-        if (c.obstacle_top_surface) hs.top_surface_cell = static_cast<float>(c.voxel_m);
+        if (c.obstacle_top_surface) {
+            hs.top_surface_cell = static_cast<float>(c.obstacle_cell_m > 0 ? c.obstacle_cell_m : c.voxel_m);
+        }
         for (const auto& v : detect_obstacles_height(leveled, hs)) s.obstacles.push_back(R_g.transpose() * v);
         s.octree = tree;
         s.T_world_submap_gt = T_w_sub_gt;

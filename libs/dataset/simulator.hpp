@@ -42,7 +42,10 @@ struct SimConfig {
     double octomap_resolution_m = 0.05;
     int octomap_pixel_stride = 2;   // rays used for the OctoMap: every n-th pixel in u and v
     double obstacle_max_height_m = 0.6;  // obstacle points only this high above the ground
-    bool obstacle_top_surface = true;     // one obstacle point per voxel column, the highest
+    bool obstacle_top_surface = true;     // one obstacle point per grid-map column, the highest
+    // Column size of that rule: the rover's obstacle grid map has its own resolution, not the
+    // cloud's; 0 = the cloud voxel (what it was before this setting existed).
+    double obstacle_cell_m = 0.0;
 
     // Odometry noise: std grows with sqrt(distance); multiplied by (1 + 2 |slope|).
     double sigma_x = 0.03;          // [m/sqrt(m)]

@@ -98,6 +98,41 @@ TEST_F(StoreTest, PutIsIdempotentAndKeepsTheFirst) {
     EXPECT_EQ(store.count(), 3u);
 }
 
+TEST_F(StoreTest, RemoveDeletesOneObservationAndItsParameterRows) {
+    ObservationStore db(db_path());
+    ASSERT_TRUE(db.put(make_observation(1)));
+    ASSERT_TRUE(db.put(make_observation(2)));
+    const auto all = db.list();
+    ASSERT_EQ(all.size(), 2u);
+    EXPECT_TRUE(db.remove(all[0].row_id));
+    EXPECT_FALSE(db.remove(all[0].row_id));
+    EXPECT_EQ(db.count(), 1u);
+    EXPECT_FALSE(db.get(all[0].key).has_value());
+    // A range query touches the parameter index: nothing of the removed one is left there.
+    ObservationFilter f;
+    f.ranges = {{"r_N", 0.0, 10.0}};
+    EXPECT_EQ(db.list(f).size(), 1u);
+    EXPECT_TRUE(db.put(make_observation(1)));  // can be stored again
+}
+
+TEST_F(StoreTest, ImportCopiesOnlyMissingKeysAndKeepsCreationTimes) {
+    ObservationStore a(db_path());
+    ObservationStore b((dir_ / "other.db").string());
+    for (int i = 0; i < 3; ++i) ASSERT_TRUE(a.put(make_observation(i)));
+    ASSERT_TRUE(b.put(make_observation(2)));
+    ASSERT_TRUE(b.put(make_observation(7)));
+    const auto st = a.import_from(b);
+    EXPECT_EQ(st.read, 2u);
+    EXPECT_EQ(st.imported, 1u);
+    EXPECT_EQ(st.already_present, 1u);
+    EXPECT_EQ(a.count(), 4u);
+    const auto copied = a.get(make_observation(7).key);
+    ASSERT_TRUE(copied.has_value());
+    EXPECT_EQ(copied->created_unix_ms, b.get(make_observation(7).key)->created_unix_ms);
+    EXPECT_EQ(copied->pairs.size(), make_observation(7).pairs.size());
+    EXPECT_EQ(a.import_from(b).imported, 0u);
+}
+
 TEST_F(StoreTest, PersistsAcrossReopen) {
     {
         ObservationStore store(db_path());
