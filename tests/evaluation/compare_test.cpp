@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "dataset/simulator.hpp"
+#include "temp_dataset.hpp"
 #include "params/yaml_util.hpp"
 
 namespace maptune::evaluation {
@@ -58,14 +59,9 @@ TEST(CompareTargetTest, ParsesLabelDatasetViewAndReference) {
 class CompareTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        char tmpl[] = "/tmp/maptune_compare_test_XXXXXX";
-        ASSERT_NE(mkdtemp(tmpl), nullptr);
-        root_ = tmpl;
-        auto c = dataset::sim_preset("lab-tiny");
-        c.runs = 1;
-        c.submaps = 4;
-        c.seed = 5;  // the baseline matches some of its pairs (the CLI test uses the same)
-        dataset::generate_dataset(c, root_ / "tiny");
+        root_ = test::make_temp_dir("maptune_compare_test_");
+        // Seed 5: the baseline matches some of its pairs (the CLI test uses the same).
+        test::generate_tiny_dataset(root_, "tiny", 1, 4, 5);
     }
     static void TearDownTestSuite() { fs::remove_all(root_); }
     static std::string source(const std::string& rel) { return std::string(MAPTUNE_SOURCE_DIR) + "/" + rel; }

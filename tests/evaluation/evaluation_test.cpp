@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "dataset/simulator.hpp"
+#include "temp_dataset.hpp"
 
 namespace maptune::evaluation {
 namespace {
@@ -14,13 +15,8 @@ namespace fs = std::filesystem;
 class EvaluationTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        char tmpl[] = "/tmp/maptune_evaluation_test_XXXXXX";
-        ASSERT_NE(mkdtemp(tmpl), nullptr);
-        root_ = tmpl;
-        auto c = dataset::sim_preset("lab-tiny");
-        c.runs = 1;
-        c.submaps = 3;
-        dataset::generate_dataset(c, root_ / "ds");
+        root_ = test::make_temp_dir("maptune_evaluation_test_");
+        test::generate_tiny_dataset(root_, "ds", 1, 3);
     }
     static void TearDownTestSuite() { fs::remove_all(root_); }
     static params::ParameterSpace space() {
