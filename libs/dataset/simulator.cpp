@@ -95,6 +95,7 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"tilt_deg", r(c.tilt_deg, -90, 90)},
         {"max_range_m", r(c.max_range_m, 0.2, 1000)},
         {"hole_probability", r(c.hole_probability, 0, 0.99)},
+        {"exposure_sigma", r(c.exposure_sigma, 0, 1)},
         {"frame_step_m", r(c.frame_step_m, 0.01, 10)},
         {"path_wander", r(c.path_wander, 0, 10)},
         {"submap_distance_m", r(c.submap_distance_m, 0.05, 1000)},
@@ -681,6 +682,7 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
     // Separate streams: the path and odometry do not change when the sensor model does.
     Rng rng(mix(c.seed, 1000 + static_cast<std::uint64_t>(run)));
     Rng sensor_rng(mix(c.seed, 5000 + static_cast<std::uint64_t>(run)));
+    Rng exposure_rng(mix(c.seed, 9000 + static_cast<std::uint64_t>(run)));  // colours only
     PathPlanner planner(world, rng, world.lab() ? 0.7 : 6.0, c.path_wander);
     Pose2 p2 = planner.start();
     Eigen::Isometry3d T_gt = base_pose(world, p2);
@@ -749,6 +751,14 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
             odom_full.push_back({frame * dt, T_odom});
             // One depth frame at the current pan angle of the sweep.
             const double pan = c.pan_sweep_deg[frame % c.pan_sweep_deg.size()] * M_PI / 180;
+            // Exposure of this frame, from its own stream: geometry does not depend on it.
+            float gain[3] = {1.f, 1.f, 1.f};
+            if (c.exposure_sigma > 0) {
+                const double g = std::max(0.2, 1 + c.exposure_sigma * exposure_rng.normal());
+                for (float& ch : gain) {
+                    ch = static_cast<float>(g * std::max(0.2, 1 + c.exposure_sigma / 3 * exposure_rng.normal()));
+                }
+            }
             Eigen::Isometry3d T_base_cam = Eigen::Isometry3d::Identity();
             T_base_cam.translation() = Eigen::Vector3d(0, 0, c.camera_height_m);
             T_base_cam.linear() = rpy(0, -c.tilt_deg * M_PI / 180, pan);
@@ -777,7 +787,10 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
                     const double sigma_z = depth * depth * c.disparity_sigma_px / (c.focal_px * c.baseline_m);
                     const double z_noisy = depth + sigma_z * sensor_rng.normal();
                     const Eigen::Vector3d p_sub = T_sub_cam * (rc * z_noisy);
-                    const Rgb col = world.colour(p_w);
+                    Rgb col = world.colour(p_w);
+                    col.r *= gain[0];
+                    col.g *= gain[1];
+                    col.b *= gain[2];
                     ColoredPoint q;
                     q.x = static_cast<float>(p_sub.x());
                     q.y = static_cast<float>(p_sub.y());

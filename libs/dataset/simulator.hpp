@@ -32,6 +32,10 @@ struct SimConfig {
     std::vector<double> pan_sweep_deg = {-60, -30, 0, 30, 60, 30, 0, -30};
     double max_range_m = 5.0;
     double hole_probability = 0.03; // random missing pixels; textureless patches add more
+    // Auto exposure / white balance: per frame a brightness gain N(1, exposure_sigma) and a
+    // per-channel gain N(1, exposure_sigma / 3) scale the colours (a camera panning between
+    // bright walls and dark floor re-exposes). 0 = fixed exposure (the presets so far).
+    double exposure_sigma = 0.0;
 
     // Rover and submaps.
     double frame_step_m = 0.1;      // distance driven between frames

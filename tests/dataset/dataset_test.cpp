@@ -113,6 +113,27 @@ TEST(SimulatorTest, SimOptionsSetFieldsAndRejectBadValuesByName) {
     EXPECT_NE(std::find(all.begin(), all.end(), "pan_sweep_deg=-30,0,30"), all.end());
 }
 
+// Auto exposure changes the colours of a frame, never the geometry.
+TEST(SimulatorTest, ExposureChangesColoursButNotGeometry) {
+    SimConfig c = sim_preset("lab-tiny");
+    c.runs = 1;
+    c.submaps = 2;
+    generate_dataset(c, temp_root() / "exposure_off");
+    c.exposure_sigma = 0.3;
+    generate_dataset(c, temp_root() / "exposure_on");
+    const Submap off = Dataset::open(temp_root() / "exposure_off").load_submap(0, 1);
+    const Submap on = Dataset::open(temp_root() / "exposure_on").load_submap(0, 1);
+    ASSERT_EQ(off.cloud.size(), on.cloud.size());
+    std::size_t same_colour = 0;
+    for (std::size_t i = 0; i < off.cloud.size(); ++i) {
+        EXPECT_EQ(off.cloud[i].x, on.cloud[i].x);
+        EXPECT_EQ(off.cloud[i].z, on.cloud[i].z);
+        same_colour += off.cloud[i].r == on.cloud[i].r && off.cloud[i].g == on.cloud[i].g ? 1 : 0;
+    }
+    EXPECT_LT(same_colour, off.cloud.size() / 2);
+    EXPECT_EQ(off.obstacles.size(), on.obstacles.size());
+}
+
 TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {
     const fs::path out = temp_root() / "fail";
     {
