@@ -7,7 +7,8 @@
 namespace maptune::matcher {
 namespace {
 
-const std::string kBunnyDir = MAPTUNE_SOURCE_DIR "/../shared/data/stanford_bunny_scans/";
+// In the repository (tests/data/stanford_bunny/README.md), so a bare clone runs this test.
+const std::string kBunnyDir = MAPTUNE_SOURCE_DIR "/tests/data/stanford_bunny/";
 
 // Baseline parameters scaled to a 0.15 m object scanned at ~0.5 mm spacing.
 MatcherParams bunny_params() {
