@@ -375,14 +375,14 @@ std::vector<double> Dataset::reference_overlaps(const std::vector<SubmapPair>& p
     }
     std::map<std::pair<int, int>, std::vector<std::uint64_t>> keys;  // per submap, by odometry
     auto keys_of = [&](int run, int index) -> const std::vector<std::uint64_t>& {
-        auto& k = keys[{run, index}];
-        if (k.empty()) {
+        const auto [it, inserted] = keys.try_emplace({run, index});
+        if (inserted) {  // each cloud read once
             const RunRecord& r = manifest_.runs.at(static_cast<std::size_t>(run));
             const SubmapRecord& s = r.submaps.at(static_cast<std::size_t>(index));
-            k = world_voxel_keys(read_cloud(dir_ / s.cloud), r.odometry.at(static_cast<std::size_t>(index)).T,
-                                 static_cast<float>(manifest_.overlap_voxel));
+            it->second = world_voxel_keys(read_cloud(dir_ / s.cloud), r.odometry.at(static_cast<std::size_t>(index)).T,
+                                          static_cast<float>(manifest_.overlap_voxel));
         }
-        return k;
+        return it->second;
     };
     for (const auto& p : pairs) out.push_back(overlap_ratio(keys_of(p.run, p.a), keys_of(p.run, p.b)));
     return out;

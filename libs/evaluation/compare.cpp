@@ -165,6 +165,7 @@ CompareResult compare(const params::ParameterSpace& space, const std::vector<Nam
     struct Opened {
         dataset::Dataset ds;
         std::vector<dataset::SubmapPair> pairs;
+        const ReferenceColumn* reference;  // null: no reference scores for this view
     };
     std::vector<Opened> opened;
     for (const auto& t : targets) {
@@ -202,7 +203,7 @@ CompareResult compare(const params::ParameterSpace& space, const std::vector<Nam
             throw ConfigError("target '" + t.label + "': " + bad);
         }
         result.columns.push_back(std::move(col));
-        opened.push_back({std::move(ds), std::move(pairs)});
+        opened.push_back({std::move(ds), std::move(pairs), ref});
     }
 
     const std::size_t total = sets.size() * targets.size();
@@ -210,7 +211,7 @@ CompareResult compare(const params::ParameterSpace& space, const std::vector<Nam
     for (std::size_t c = 0; c < targets.size(); ++c) {
         CompareColumn& col = result.columns[c];
         Evaluator evaluator(opened[c].ds, space, options.matcher);  // features shared across sets
-        const ReferenceColumn* ref = find_reference_column(options.reference, col.target.label, col.world);
+        const ReferenceColumn* ref = opened[c].reference;
         std::vector<double> ours, theirs;
         for (const auto& s : sets) {
             if (options.progress) {

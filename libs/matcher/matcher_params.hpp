@@ -124,7 +124,7 @@ struct MatcherSettings {
 std::string feature_settings_fingerprint(const MatcherSettings& settings);
 
 // Sets one non-optimized setting by its field name ("min_ransac_inliers", "icp_enabled", ...)
-// from text, for experiment files and `--matcher KEY=VALUE`. Returns an error naming the key
+// from text, for `--matcher KEY=VALUE` (evaluate, sweep, compare). Returns an error naming the key
 // and the value ("" when set); unknown keys list the known ones.
 std::string set_matcher_setting(MatcherSettings& settings, const std::string& key,
                                 const std::string& value);

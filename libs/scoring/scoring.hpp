@@ -20,7 +20,7 @@ std::string pair_id(const dataset::SubmapPair& pair);
 // At least 1.
 double derive_m_star(const std::vector<dataset::SubmapPair>& pairs, double min_overlap = 0.3);
 // The same count over overlaps from the view's own reference (Dataset::reference_overlaps):
-// with odometry as reference, m* never uses ground truth (`m_star: auto`, docs/optimizer.md).
+// with odometry as reference, m* never uses ground truth (`m_star: auto`, docs/datasets.md).
 double derive_m_star(const std::vector<double>& overlaps, double min_overlap = 0.3);
 
 struct ErrorStats {

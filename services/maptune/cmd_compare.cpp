@@ -19,7 +19,8 @@ namespace {
 namespace fs = std::filesystem;
 
 struct CompareCliOptions {
-    std::vector<std::string> params, on, m_star;
+    std::vector<std::string> params, on;
+    std::vector<double> m_star;
     std::string config, reference_scores;
     std::optional<double> m_star_per_pair, e_star, w_v;
     std::string space = "configs/spaces/lru_matcher.yaml";
@@ -154,9 +155,11 @@ void add_compare_command(CLI::App& app, int& exit_code) {
                     "YAML with a 'reference' section (e.g. configs/compare/thesis_table_5_2.yaml): scores to "
                     "rank against, and the reference's m* per pair");
     cmd->add_option("--m-star", opt->m_star,
-                    "m* per view, in the order of --on (one value: for every view), > 0");
+                    "m* per view, in the order of --on (one value: for every view), 1e-9..1e9")
+        ->check(CLI::Range(1e-9, 1e9));
     cmd->add_option("--m-star-per-pair", opt->m_star_per_pair,
-                    "m* = F x pairs of the view (thesis lab: 200/1365 = 0.1465), > 0");
+                    "m* = F x pairs of the view (thesis lab: 200/1365 = 0.1465), 1e-9..1e9")
+        ->check(CLI::Range(1e-9, 1e9));
     cmd->add_option("--e-star", opt->e_star, "e* [m], > 0.05")->capture_default_str();
     cmd->add_option("--w-v", opt->w_v, "weight of v in p, 0..1")->check(CLI::Range(0.0, 1.0));
     cmd->add_option("--space", opt->space, "design space YAML")->capture_default_str();
@@ -183,19 +186,8 @@ void add_compare_command(CLI::App& app, int& exit_code) {
                                           std::to_string(targets.size()) + " views (give 1 or one per view)");
             }
             for (std::size_t i = 0; i < targets.size(); ++i) {
-                if (!opt->m_star.empty()) {
-                    const std::string& text = opt->m_star[opt->m_star.size() == 1 ? 0 : i];
-                    char* end = nullptr;
-                    const double v = std::strtod(text.c_str(), &end);
-                    if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v <= 0) {
-                        throw params::ConfigError("--m-star: '" + text + "' is not a number > 0");
-                    }
-                    targets[i].m_star = v;
-                }
-                if (opt->m_star_per_pair) {
-                    if (!(*opt->m_star_per_pair > 0)) throw params::ConfigError("--m-star-per-pair: expected > 0");
-                    targets[i].m_star_per_pair = opt->m_star_per_pair;
-                }
+                if (!opt->m_star.empty()) targets[i].m_star = opt->m_star[opt->m_star.size() == 1 ? 0 : i];
+                if (opt->m_star_per_pair) targets[i].m_star_per_pair = opt->m_star_per_pair;
             }
 
             const auto space = params::ParameterSpace::load(opt->space);

@@ -222,8 +222,10 @@ void add_trials_command(CLI::App& app, int& exit_code) {
                 }
                 return static_cast<double>(o.row_id);
             };
+            std::vector<double> keys(observations.size());  // once per row, not per comparison
+            for (std::size_t i = 0; i < keys.size(); ++i) keys[i] = key(i);
             std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-                return desc ? key(a) > key(b) : key(a) < key(b);
+                return desc ? keys[a] > keys[b] : keys[a] < keys[b];
             });
             if (opt->best > 0) {
                 order.erase(std::remove_if(order.begin(), order.end(), [&](std::size_t i) { return !scores[i]; }),
