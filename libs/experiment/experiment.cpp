@@ -46,6 +46,80 @@ std::string read_choice(const YAML::Node& n, const YamlPath& where,
     where.fail(n, "expected one of " + all + ", got '" + v + "'");
 }
 
+struct DatasetSection {
+    std::string dir;
+    std::optional<GenerateSpec> generate;
+};
+
+// dataset: a directory, or {dir, generate: {preset, runs, submaps, seed}}.
+DatasetSection read_dataset_section(const YAML::Node& n, const YamlPath& p, const fs::path& base) {
+    DatasetSection out;
+    if (n.IsScalar()) {
+        out.dir = resolve(base, n.Scalar());
+        return out;
+    }
+    params::check_keys(n, p, {"dir", "generate"});
+    if (!n["dir"].IsDefined()) p.fail(n, "missing key 'dir'");
+    out.dir = resolve(base, params::read_string(n["dir"], p.child("dir")));
+    if (n["generate"].IsDefined()) {
+        const YamlPath g = p.child("generate");
+        const YAML::Node gn = n["generate"];
+        params::check_keys(gn, g, {"preset", "runs", "submaps", "seed"});
+        if (!gn["preset"].IsDefined()) g.fail(gn, "missing key 'preset'");
+        GenerateSpec spec;
+        spec.preset = read_choice(gn["preset"], g.child("preset"), {"lab", "moon", "lab-tiny", "moon-tiny"});
+        if (gn["runs"].IsDefined()) spec.runs = read_int(gn["runs"], g.child("runs"), 1, 1000);
+        if (gn["submaps"].IsDefined()) spec.submaps = read_int(gn["submaps"], g.child("submaps"), 2, 10000);
+        if (gn["seed"].IsDefined()) {
+            spec.seed = static_cast<std::uint64_t>(read_int(gn["seed"], g.child("seed"), 0, 1 << 30));
+        }
+        out.generate = spec;
+    }
+    return out;
+}
+
+// validate: a list of {label, dataset, view, reference, m_star | m_star_per_pair}.
+std::vector<ValidationTarget> read_validate_section(const YAML::Node& n, const YamlPath& p,
+                                                    const fs::path& base) {
+    if (!n.IsSequence()) p.fail(n, "expected a list of held-out targets ({dataset, view, reference, m_star})");
+    std::vector<ValidationTarget> out;
+    std::set<std::string> labels;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+        const YAML::Node t = n[i];
+        const YamlPath tp = p.index(i);
+        if (!t.IsMap()) tp.fail(t, "expected a map with at least 'dataset'");
+        params::check_keys(t, tp, {"label", "dataset", "view", "reference", "m_star", "m_star_per_pair"});
+        if (!t["dataset"].IsDefined()) tp.fail(t, "missing key 'dataset'");
+        ValidationTarget v;
+        DatasetSection d = read_dataset_section(t["dataset"], tp.child("dataset"), base);
+        v.dataset_dir = d.dir;
+        v.generate = d.generate;
+        v.label = t["label"].IsDefined() ? params::read_string(t["label"], tp.child("label"))
+                                         : fs::path(v.dataset_dir).filename().string();
+        if (v.label.empty() || v.label.find_first_of(",\n") != std::string::npos) {
+            tp.child("label").fail(t["label"], "expected a non-empty label without ',' or newline");
+        }
+        if (!labels.insert(v.label).second) {
+            tp.fail(t, "label '" + v.label + "' used twice (give each target its own 'label')");
+        }
+        if (t["view"].IsDefined()) v.view = read_choice(t["view"], tp.child("view"), {"complete", "subsequent"});
+        if (t["reference"].IsDefined()) {
+            v.reference = read_choice(t["reference"], tp.child("reference"), {"gt", "odometry"});
+        }
+        if (t["m_star"].IsDefined() && t["m_star_per_pair"].IsDefined()) {
+            tp.fail(t, "give m_star or m_star_per_pair, not both");
+        }
+        if (t["m_star"].IsDefined() && !(t["m_star"].IsScalar() && t["m_star"].Scalar() == "auto")) {
+            v.m_star = read_range(t["m_star"], tp.child("m_star"), 1e-9, 1e9);
+        }
+        if (t["m_star_per_pair"].IsDefined()) {
+            v.m_star_per_pair = read_range(t["m_star_per_pair"], tp.child("m_star_per_pair"), 1e-9, 1e9);
+        }
+        out.push_back(std::move(v));
+    }
+    return out;
+}
+
 }  // namespace
 
 Experiment load_experiment(const std::string& file) {
@@ -55,7 +129,7 @@ Experiment load_experiment(const std::string& file) {
     params::check_keys(root, top,
                        {"name", "description", "space", "optimize", "fixed", "dataset", "view",
                         "reference", "measure", "budget", "optimizer", "start_points", "matcher",
-                        "workers"});
+                        "workers", "seeds", "validate"});
     Experiment e;
     e.file = file;
     for (const char* required : {"name", "space", "dataset"}) {
@@ -110,34 +184,10 @@ Experiment load_experiment(const std::string& file) {
         }
     }
 
-    // dataset: a directory, or {dir, generate: {preset, runs, submaps, seed}}.
     {
-        const YamlPath p = top.child("dataset");
-        const YAML::Node n = root["dataset"];
-        if (n.IsScalar()) {
-            e.dataset_dir = resolve(base, n.Scalar());
-        } else {
-            params::check_keys(n, p, {"dir", "generate"});
-            if (!n["dir"].IsDefined()) p.fail(n, "missing key 'dir'");
-            e.dataset_dir = resolve(base, params::read_string(n["dir"], p.child("dir")));
-            if (n["generate"].IsDefined()) {
-                const YamlPath g = p.child("generate");
-                const YAML::Node gn = n["generate"];
-                params::check_keys(gn, g, {"preset", "runs", "submaps", "seed"});
-                if (!gn["preset"].IsDefined()) g.fail(gn, "missing key 'preset'");
-                GenerateSpec spec;
-                spec.preset = read_choice(gn["preset"], g.child("preset"),
-                                          {"lab", "moon", "lab-tiny", "moon-tiny"});
-                if (gn["runs"].IsDefined()) spec.runs = read_int(gn["runs"], g.child("runs"), 1, 1000);
-                if (gn["submaps"].IsDefined()) {
-                    spec.submaps = read_int(gn["submaps"], g.child("submaps"), 2, 10000);
-                }
-                if (gn["seed"].IsDefined()) {
-                    spec.seed = static_cast<std::uint64_t>(read_int(gn["seed"], g.child("seed"), 0, 1 << 30));
-                }
-                e.generate = spec;
-            }
-        }
+        DatasetSection d = read_dataset_section(root["dataset"], top.child("dataset"), base);
+        e.dataset_dir = d.dir;
+        e.generate = d.generate;
     }
     if (root["view"].IsDefined()) {
         e.view = read_choice(root["view"], top.child("view"), {"complete", "subsequent"});
@@ -214,6 +264,18 @@ Experiment load_experiment(const std::string& file) {
             e.total_time_limit_s = read_range(n["total_time_limit_s"], p.child("total_time_limit_s"), 0.01, 1e7);
         }
     }
+    if (root["seeds"].IsDefined()) {
+        const YamlPath p = top.child("seeds");
+        const YAML::Node n = root["seeds"];
+        if (!n.IsSequence() || n.size() == 0) p.fail(n, "expected a non-empty list of optimizer seeds, e.g. [1, 2, 3]");
+        std::set<std::uint64_t> seen;
+        for (std::size_t i = 0; i < n.size(); ++i) {
+            const auto seed = static_cast<std::uint64_t>(read_int(n[i], p.index(i), 0, 1 << 30));
+            if (!seen.insert(seed).second) p.index(i).fail(n[i], "seed " + std::to_string(seed) + " listed twice");
+            e.seeds.push_back(seed);
+        }
+    }
+    if (root["validate"].IsDefined()) e.validate = read_validate_section(root["validate"], top.child("validate"), base);
     if (root["workers"].IsDefined()) e.workers = read_int(root["workers"], top.child("workers"), 1, 64);
     return e;
 }

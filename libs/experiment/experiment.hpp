@@ -22,6 +22,18 @@ struct GenerateSpec {
     std::uint64_t seed = 1;
 };
 
+// A held-out dataset view the tuned sets are validated on (`validate:`, issue 11): the
+// thesis's protocol is to tune on subsequent pairs and judge on complete views with gt.
+struct ValidationTarget {
+    std::string label;                       // default: the dataset directory's name
+    std::string dataset_dir;
+    std::optional<GenerateSpec> generate;
+    std::string view = "complete";           // complete | subsequent
+    std::string reference = "gt";            // gt | odometry
+    std::optional<double> m_star;            // absolute
+    std::optional<double> m_star_per_pair;   // m* = this x pairs of the view; neither: auto
+};
+
 struct Experiment {
     std::string name;
     std::string file;                        // where it was loaded from
@@ -42,6 +54,7 @@ struct Experiment {
     double ucb_kappa = 5.0;
     int initial_points = 0;                  // 0 = optimizer default
     std::uint64_t seed = 1;
+    std::vector<std::uint64_t> seeds;        // repeats (`seeds: [1, 2, 3]`); empty: just `seed`
     int batch = 0;                           // proposals in flight; 0 = one per free worker slot
     std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline
     std::vector<std::string> start_point_files;
@@ -49,6 +62,7 @@ struct Experiment {
     int matcher_threads = 0;                 // 0 = hardware concurrency
     double pair_time_limit_s = 60;
     double total_time_limit_s = 1800;
+    std::vector<ValidationTarget> validate;
     // Embedded run: worker processes/threads started by `maptune run`.
     int workers = 1;
 };

@@ -1,10 +1,9 @@
 #include "embedded.hpp"
 
-#include <ctime>
 #include <iostream>
 #include <random>
 
-#include "dataset/simulator.hpp"
+#include "evaluation/validation.hpp"
 #include "matcher_worker.hpp"
 #include "params/export.hpp"
 #include "params/yaml_util.hpp"
@@ -17,15 +16,6 @@ namespace maptune::services {
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string utc_stamp() {
-    const std::time_t t = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", &tm);
-    return buf;
-}
 
 void print_summary(const experiment::Experiment& e, const RunSummary& s, const fs::path& run_dir) {
     std::cout << "\n" << s.evaluations.size() << " evaluations (" << s.stop_reason << "), m* = "
@@ -72,72 +62,64 @@ void print_summary(const experiment::Experiment& e, const RunSummary& s, const f
 
 }  // namespace
 
-int run_embedded(const EmbeddedOptions& options) {
+int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
     install_stop_signals();
     experiment::Experiment e;
     try {
         e = experiment::load_experiment(options.experiment_file);
+        evaluation::ensure_dataset(e.dataset_dir, e.generate, [](const std::string& line) {
+            std::cout << line << std::endl;
+        });
     } catch (const params::ConfigError& err) {
         std::cerr << "maptune run: " << err.what() << "\n";
         return 2;
     }
-    if (!fs::exists(fs::path(e.dataset_dir) / "manifest.yaml")) {
-        if (!e.generate) {
-            std::cerr << "maptune run: " << e.dataset_dir << ": no dataset there, and the experiment "
-                      << "has no dataset.generate section\n";
-            return 2;
-        }
-        dataset::SimConfig config = dataset::sim_preset(e.generate->preset);
-        if (e.generate->runs > 0) config.runs = e.generate->runs;
-        if (e.generate->submaps > 0) config.submaps = e.generate->submaps;
-        config.seed = e.generate->seed;
-        std::cout << "generating dataset " << e.dataset_dir << " (" << e.generate->preset << ", "
-                  << config.runs << " runs x " << config.submaps << " submaps, seed " << config.seed
-                  << ") ..." << std::endl;
-        const double t0 = now_s();
-        dataset::generate_dataset(config, e.dataset_dir);
-        std::cout << "generated in " << params::format_fixed(now_s() - t0, 1) << " s" << std::endl;
-    }
-    const fs::path run_dir = options.run_dir.empty() ? fs::path("runs") / (e.name + "-" + utc_stamp())
-                                                     : options.run_dir;
-    fs::create_directories(run_dir);
-    const std::string db = options.db_path.empty() ? (run_dir / "observations.db").string() : options.db_path;
+    std::vector<std::uint64_t> seeds = !options.seeds.empty() ? options.seeds : e.seeds;
+    const bool repeated = !seeds.empty();
+    if (seeds.empty()) seeds.push_back(e.seed);
+    const fs::path root = options.run_dir.empty() ? fs::path("runs") / (e.name + "-" + utc_now("%Y%m%d-%H%M%S"))
+                                                  : options.run_dir;
+    fs::create_directories(root);
+    const std::string db = options.db_path.empty() ? (root / "observations.db").string() : options.db_path;
     int domain = options.domain_id;
     if (domain < 0) {
         std::random_device rd;
         domain = std::uniform_int_distribution<int>(1, 200)(rd);
     }
     const int n_workers = options.workers > 0 ? options.workers : e.workers;
-    std::cout << "run directory " << run_dir.string() << ", store " << db << ", DDS domain " << domain
+    std::cout << "run directory " << root.string() << ", store " << db << ", DDS domain " << domain
               << " (loopback), " << n_workers << (options.analytic ? " analytic" : "") << " worker(s)"
-              << std::endl;
+              << (repeated ? ", " + std::to_string(seeds.size()) + " seeds" : "") << std::endl;
+    if (result) {
+        result->experiment = e;
+        result->root = root;
+        result->db_path = db;
+    }
 
     auto participant = [&](const std::string& name) {
         return std::make_unique<dds::Participant>(dds::ParticipantOptions{domain, "", "maptune_loopback", name});
     };
+    int exit_code = 0;
     try {
         auto server_p = participant("dataset_server");
         DatasetServer server(*server_p, {{e.dataset_dir}, 512 * 1024, ""});
 
         auto db_p = participant("sample_db");
-        DatasetMirror db_mirror(*db_p, run_dir / "cache", "sample_db");
+        DatasetMirror db_mirror(*db_p, root / "cache", "sample_db");
         SampleDbOptions db_options;
         db_options.store_path = db;
         db_options.spaces = {e.space};
         SampleDb sample_db(*db_p, db_mirror, db_options);
 
-        matcher::MatcherSettings settings;
-        settings.threads = e.matcher_threads > 0 ? e.matcher_threads
-                                                 : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / n_workers);
-        settings.pair_time_limit_s = e.pair_time_limit_s;
-        settings.total_time_limit_s = e.total_time_limit_s;
+        const matcher::MatcherSettings settings = evaluation::experiment_matcher_settings(
+            e, std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / n_workers));
         std::vector<std::unique_ptr<dds::Participant>> worker_ps;
         std::vector<std::unique_ptr<DatasetMirror>> mirrors;
         std::vector<std::unique_ptr<WorkerBackend>> backends;
         std::vector<std::unique_ptr<MatcherWorker>> workers;
         for (int i = 0; i < n_workers; ++i) {
             worker_ps.push_back(participant("worker" + std::to_string(i)));
-            mirrors.push_back(std::make_unique<DatasetMirror>(*worker_ps.back(), run_dir / "cache",
+            mirrors.push_back(std::make_unique<DatasetMirror>(*worker_ps.back(), root / "cache",
                                                               "worker" + std::to_string(i)));
             // Embedded workers read the dataset directory directly: no copy.
             mirrors.back()->add_local(e.dataset_dir);
@@ -150,21 +132,33 @@ int run_embedded(const EmbeddedOptions& options) {
                                                               WorkerOptions{"", 1, 0.5}));
         }
 
-        auto opt_p = participant("optimizer");
-        DatasetMirror opt_mirror(*opt_p, run_dir / "cache", "optimizer");
-        OptimizerServiceOptions opt_options;
-        opt_options.experiment = e;
-        opt_options.run_dir = run_dir;
-        opt_options.matcher_id = options.analytic ? "analytic" : "lru_matcher";
-        opt_options.progress_bar = options.progress_bar;
-        OptimizerService optimizer(*opt_p, opt_mirror, opt_options);
-        const RunSummary summary = optimizer.run();
-        print_summary(e, summary, run_dir);
-        return summary.best >= 0 ? 0 : 1;
+        // One optimizer per seed, one after the other; the store answers what an earlier seed
+        // already evaluated (the start points, at least).
+        for (const std::uint64_t seed : seeds) {
+            if (stop_requested()) break;
+            const fs::path run_dir = repeated ? root / ("seed-" + std::to_string(seed)) : root;
+            experiment::Experiment seeded = e;
+            seeded.seed = seed;
+            if (repeated) std::cout << "\n== seed " << seed << ": " << run_dir.string() << std::endl;
+            auto opt_p = participant("optimizer");
+            DatasetMirror opt_mirror(*opt_p, root / "cache", "optimizer");
+            OptimizerServiceOptions opt_options;
+            opt_options.experiment = seeded;
+            opt_options.run_dir = run_dir;
+            if (repeated) opt_options.experiment_id = e.name + "-seed" + std::to_string(seed);
+            opt_options.matcher_id = options.analytic ? "analytic" : "lru_matcher";
+            opt_options.progress_bar = options.progress_bar;
+            OptimizerService optimizer(*opt_p, opt_mirror, opt_options);
+            RunSummary summary = optimizer.run();
+            print_summary(e, summary, run_dir);
+            if (summary.best < 0) exit_code = 1;
+            if (result) result->runs.push_back({seed, run_dir, std::move(summary)});
+        }
     } catch (const std::exception& err) {
         std::cerr << "maptune run: " << err.what() << "\n";
         return 1;
     }
+    return exit_code;
 }
 
 }  // namespace maptune::services

@@ -3,8 +3,10 @@
 // workers and optimizer, each with its own DDS participant on a private random domain (the
 // same code path as separate processes).
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "optimizer_service.hpp"
 
@@ -18,10 +20,25 @@ struct EmbeddedOptions {
     int domain_id = -1;              // -1: random in [1, 200]
     bool analytic = false;           // the analytic test matcher instead of the PCL pipeline
     bool progress_bar = true;
+    std::vector<std::uint64_t> seeds;  // empty: the experiment's `seeds`, else its one seed
 };
 
-// Runs the experiment to its budget and prints the summary (best next to the baseline).
-// Returns the process exit code.
-int run_embedded(const EmbeddedOptions& options);
+// What ran: with several seeds, one run directory per seed (seed-<n>) under `root`, which
+// holds the shared observation store.
+struct EmbeddedResult {
+    experiment::Experiment experiment;  // as loaded (validation reads its `validate:`)
+    std::filesystem::path root;
+    std::string db_path;
+    struct SeedRun {
+        std::uint64_t seed = 0;
+        std::filesystem::path run_dir;
+        RunSummary summary;
+    };
+    std::vector<SeedRun> runs;
+};
+
+// Runs the experiment to its budget (once per seed) and prints the summary (best next to the
+// baseline). Returns the process exit code; `result` (optional) gets the run directories.
+int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result = nullptr);
 
 }  // namespace maptune::services

@@ -31,6 +31,8 @@ std::vector<std::string> split(const std::string& line, char sep) {
 }
 
 std::string fmt(double v, int decimals = 4) { return params::format_fixed(v, decimals); }
+// Shortest text that reads back as the same double (YAML's own emitter writes 17 digits).
+std::string num(double v) { return params::format_double(v); }
 
 }  // namespace
 
@@ -141,6 +143,70 @@ void OptimizerService::write_files(const RunSummary& summary) const {
         dataset::write_file(options_.run_dir / "best_params.ros2.yaml",
                             "# " + header + "\n" + params::to_ros2_yaml(b.params, e.space, "map_matcher"));
     }
+    if (summary.predicted_best) {
+        const std::string header = "predicted best of experiment " + options_.experiment_id +
+                                   " (GP posterior mean " + fmt(summary.predicted_mean) + " +- " +
+                                   fmt(summary.predicted_std) + " after " +
+                                   std::to_string(summary.evaluations.size()) + " evaluations)";
+        dataset::write_file(options_.run_dir / "predicted_best.yaml",
+                            params::to_plain_yaml(e.space.round(*summary.predicted_best), e.space, header));
+    }
+}
+
+void OptimizerService::write_run_record(const RunSummary& summary, bool finished) const {
+    const auto& e = options_.experiment;
+    YAML::Emitter out;
+    out << YAML::BeginMap;
+    out << YAML::Key << "experiment" << YAML::Value << e.name;
+    out << YAML::Key << "experiment_id" << YAML::Value << options_.experiment_id;
+    std::error_code ec;
+    const fs::path file = e.file.empty() ? fs::path() : fs::absolute(e.file, ec).lexically_normal();
+    out << YAML::Key << "experiment_file" << YAML::Value << file.string();
+    out << YAML::Key << "dataset" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "dir" << YAML::Value << fs::absolute(e.dataset_dir, ec).lexically_normal().string();
+    out << YAML::Key << "id" << YAML::Value << dataset_id_;
+    out << YAML::Key << "name" << YAML::Value << dataset_name_;
+    out << YAML::Key << "view" << YAML::Value << e.view;
+    out << YAML::Key << "reference" << YAML::Value << e.reference;
+    out << YAML::EndMap;
+    out << YAML::Key << "measure" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "e_star" << YAML::Value << num(e.e_star);
+    out << YAML::Key << "m_star" << YAML::Value << num(summary.m_star);
+    out << YAML::Key << "m_star_rule" << YAML::Value << (e.m_star ? "given" : "auto");
+    out << YAML::Key << "w_v" << YAML::Value << num(e.w_v);
+    out << YAML::EndMap;
+    out << YAML::Key << "matcher" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "id" << YAML::Value << options_.matcher_id;
+    out << YAML::Key << "version" << YAML::Value << matcher_version_;
+    out << YAML::EndMap;
+    out << YAML::Key << "optimizer" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "acquisition" << YAML::Value << e.acquisition;
+    out << YAML::Key << "seed" << YAML::Value << e.seed;
+    out << YAML::Key << "optimize" << YAML::Value << YAML::Flow << e.optimize;
+    out << YAML::EndMap;
+    out << YAML::Key << "budget" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "evaluations" << YAML::Value << e.max_evaluations;
+    out << YAML::Key << "seconds" << YAML::Value << num(e.max_seconds);
+    out << YAML::EndMap;
+    out << YAML::Key << "started_utc" << YAML::Value << started_utc_;
+    out << YAML::Key << "state" << YAML::Value << (finished ? "finished" : "running");
+    if (finished) {
+        out << YAML::Key << "finished_utc" << YAML::Value << utc_now();
+        out << YAML::Key << "wall_s" << YAML::Value << fmt(now_s() - started_s_, 1);
+        out << YAML::Key << "stop_reason" << YAML::Value << summary.stop_reason;
+        out << YAML::Key << "evaluations" << YAML::Value << summary.evaluations.size();
+        if (summary.best >= 0) {
+            const auto& b = summary.evaluations[static_cast<std::size_t>(summary.best)];
+            out << YAML::Key << "best" << YAML::Value << YAML::BeginMap;
+            out << YAML::Key << "evaluation" << YAML::Value << b.number;
+            out << YAML::Key << "p" << YAML::Value << num(b.p);
+            out << YAML::EndMap;
+        }
+    }
+    out << YAML::EndMap;
+    dataset::write_file(options_.run_dir / "run.yaml",
+                        "# maptune run record (written by the optimizer; read by validate and report)\n" +
+                            std::string(out.c_str()) + "\n");
 }
 
 void OptimizerService::publish(const RunSummary& summary, int iteration) {
@@ -166,6 +232,8 @@ RunSummary OptimizerService::run() {
     const experiment::Experiment& e = options_.experiment;
     fs::create_directories(options_.run_dir);
     RunSummary summary;
+    started_s_ = now_s();
+    started_utc_ = utc_now();
 
     // The dataset: a local directory when there is one, else whatever a server announces.
     std::string dataset_id = options_.dataset_id;
@@ -217,6 +285,11 @@ RunSummary OptimizerService::run() {
                                  "' with design space " + e.space.hash() + " appeared within " +
                                  fmt(options_.wait_s, 0) + " s");
     }
+
+    dataset_id_ = dataset_id;
+    dataset_name_ = ds->manifest().name;
+    matcher_version_ = version;
+    write_run_record(summary, false);
 
     // Resume from an earlier run in the same directory.
     const auto resumed = read_trials_csv(options_.run_dir / "trials.csv", e.space);
@@ -405,6 +478,7 @@ RunSummary OptimizerService::run() {
     st.evaluations(static_cast<uint32_t>(summary.evaluations.size()));
     st.message(summary.stop_reason);
     status_.write(st);
+    write_run_record(summary, true);
     return summary;
 }
 

@@ -2,8 +2,9 @@
 // optimizer: runs an experiment by Bayesian optimization in ask/tell form over DDS. Keeps one
 // request in flight per free worker slot (or the experiment's batch), scores each reply
 // against the experiment's reference, publishes BestSoFar (latched: a late subscriber gets
-// the current best at once) and OptimizerStatus, and writes the run directory: trials.csv,
-// best_params.yaml, best_params.ros2.yaml, gp_hyperparameters.csv. A restart with the same
+// the current best at once) and OptimizerStatus, and writes the run directory: run.yaml (what
+// ran, on what, when: `maptune validate` and `report` read it), trials.csv, best_params.yaml,
+// best_params.ros2.yaml, predicted_best.yaml (the model's), gp_hyperparameters.csv. A restart with the same
 // run directory resumes from its trials.csv; re-asked sets come back from the store.
 
 #include <functional>
@@ -70,6 +71,8 @@ private:
     };
     void log(const std::string& line) const;
     void write_files(const RunSummary& summary) const;
+    // run.yaml; `finished` adds the end time, wall time and stop reason.
+    void write_run_record(const RunSummary& summary, bool finished) const;
     void publish(const RunSummary& summary, int iteration);
 
     dds::Participant& participant_;
@@ -82,6 +85,9 @@ private:
     std::vector<msg::v1::ObservationReply> replies_;
     std::map<std::string, msg::v1::WorkerStatus> workers_;
     std::string last_hyperparameters_;
+    // For run.yaml.
+    std::string dataset_id_, dataset_name_, matcher_version_, started_utc_;
+    double started_s_ = 0;
 };
 
 // trials.csv of a run directory: header and one line per evaluation.

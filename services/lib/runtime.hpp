@@ -18,6 +18,9 @@ void request_stop();
 // Seconds on a monotonic clock (for leases and timeouts).
 double now_s();
 
+// Wall-clock time in UTC, by strftime format (default ISO 8601: "2026-12-02T10:31:30Z").
+std::string utc_now(const char* format = "%Y-%m-%dT%H:%M:%SZ");
+
 // A unique id for this process/thread role, e.g. "worker-host-1234-1".
 std::string make_id(const std::string& role);
 

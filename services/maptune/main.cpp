@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
     maptune::cli::add_evaluate_command(app, exit_code);
     maptune::cli::add_sweep_command(app, exit_code);
     maptune::cli::add_compare_command(app, exit_code);
+    maptune::cli::add_validate_command(app, exit_code);
 #endif
 #ifdef MAPTUNE_HAVE_DATASET
     maptune::cli::add_dataset_command(app, exit_code);

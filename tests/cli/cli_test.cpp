@@ -182,6 +182,67 @@ TEST_F(CliTest, HelpAndUsageErrors) {
 }
 
 #ifdef MAPTUNE_CLI_HAS_EVALUATION
+// `maptune run --seeds` with a validate: section on a generated held-out view: one run
+// directory per seed with its run record and validation.csv, summary.csv over the seeds;
+// `maptune validate` on the same directory answers everything from the shared store.
+TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
+    const std::string src = MAPTUNE_SOURCE_DIR;
+    std::ofstream(dir_ / "exp.yaml")
+        << "name: seeded\nspace: " << src << "/configs/spaces/lru_matcher.yaml\n"
+        << "dataset: {dir: train, generate: {preset: lab-tiny, runs: 1, submaps: 4, seed: 5}}\n"
+        << "view: complete\nmeasure: {m_star: 3}\nbudget: {evaluations: 3}\n"
+        << "optimizer: {initial_points: 1}\nmatcher: {threads: 2}\n"
+        << "start_points: [" << src << "/configs/params/x_baseline.yaml]\n"
+        << "validate:\n  - label: held\n    dataset: {dir: held, generate: {preset: lab-tiny, runs: 1, "
+           "submaps: 4, seed: 8}}\n    m_star: 3\n";
+    const fs::path root = dir_ / "runs";
+    const CliRun run = maptune("run --experiment " + (dir_ / "exp.yaml").string() + " --run-dir " +
+                               root.string() + " --seeds 1,2 --no-progress");
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+    for (const char* seed : {"seed-1", "seed-2"}) {
+        for (const char* f : {"run.yaml", "trials.csv", "best_params.yaml", "validation.csv"}) {
+            EXPECT_TRUE(fs::exists(root / seed / f)) << seed << "/" << f;
+        }
+        const std::string record = slurp(root / seed / "run.yaml");
+        EXPECT_NE(record.find("experiment_file: " + (dir_ / "exp.yaml").string()), std::string::npos) << record;
+        EXPECT_NE(record.find("state: finished"), std::string::npos) << record;
+        EXPECT_NE(record.find("evaluations: 3"), std::string::npos) << record;
+        const std::string v = slurp(root / seed / "validation.csv");
+        EXPECT_NE(v.find("\nbaseline,held,"), std::string::npos) << v;
+        EXPECT_NE(v.find("\nbest,held,"), std::string::npos) << v;
+    }
+    EXPECT_TRUE(fs::exists(dir_ / "held" / "manifest.yaml"));
+    EXPECT_TRUE(fs::exists(root / "observations.db"));
+    EXPECT_FALSE(fs::exists(root / "seed-1" / "observations.db"));  // one store for all seeds
+    const std::string summary = slurp(root / "summary.csv");
+    EXPECT_EQ(summary.rfind("seed,best_p,baseline@held,best@held", 0), 0u) << summary;
+    EXPECT_NE(summary.find("\nspread,"), std::string::npos) << summary;
+    EXPECT_NE(run.out.find("over 2 seeds"), std::string::npos) << run.out;
+    EXPECT_NE(run.out.find("held p - baseline"), std::string::npos) << run.out;
+
+    const CliRun again = maptune("validate --run-dir " + root.string() + " -f csv");
+    ASSERT_EQ(again.exit_code, 0) << again.err;
+    EXPECT_EQ(again.err.find("generating"), std::string::npos) << again.err;
+    std::istringstream csv(slurp(root / "seed-2" / "validation.csv"));
+    std::string line;
+    std::getline(csv, line);
+    int rows = 0;
+    while (std::getline(csv, line)) {
+        ++rows;
+        EXPECT_EQ(line.back(), '1') << "evaluated again: " << line;
+    }
+    EXPECT_GE(rows, 2);
+
+    const CliRun single = maptune("validate --run-dir " + (root / "seed-1").string());
+    ASSERT_EQ(single.exit_code, 0) << single.err;
+    EXPECT_NE(single.out.find("| baseline"), std::string::npos) << single.out;
+
+    fs::create_directories(dir_ / "empty");
+    const CliRun bad = maptune("validate --run-dir " + (dir_ / "empty").string());
+    EXPECT_EQ(bad.exit_code, 2);
+    EXPECT_NE(bad.err.find("run.yaml: missing"), std::string::npos) << bad.err;
+}
+
 // `maptune compare` end to end on a tiny simulated lab: two sets in a known order (x_1D
 // filters every keypoint), Table 5.2 layout in markdown with the reference column and tau,
 // JSON, and a second run answered from the store.

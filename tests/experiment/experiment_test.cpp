@@ -86,6 +86,40 @@ workers: 3
     EXPECT_EQ(optimizer_options(e).acquisition, bo::Acquisition::ucb);
 }
 
+TEST_F(ExperimentTest, SeedsAndValidationTargets) {
+    const Experiment e = load_experiment(write(R"(
+name: v
+space: space.yaml
+dataset: train
+seeds: [3, 1, 2]
+validate:
+  - dataset: {dir: held/lab-101, generate: {preset: lab-tiny, seed: 101}}
+  - label: moon
+    dataset: /abs/moon
+    view: subsequent
+    reference: odometry
+    m_star_per_pair: 0.08
+  - {dataset: other, m_star: 12}
+  - {dataset: auto-one, m_star: auto}
+)"));
+    EXPECT_EQ(e.seeds, (std::vector<std::uint64_t>{3, 1, 2}));  // in the order given
+    ASSERT_EQ(e.validate.size(), 4u);
+    EXPECT_EQ(e.validate[0].label, "lab-101");
+    EXPECT_EQ(e.validate[0].dataset_dir, (dir_ / "held/lab-101").string());
+    ASSERT_TRUE(e.validate[0].generate.has_value());
+    EXPECT_EQ(e.validate[0].generate->seed, 101u);
+    EXPECT_EQ(e.validate[0].view, "complete");
+    EXPECT_EQ(e.validate[0].reference, "gt");
+    EXPECT_FALSE(e.validate[0].m_star || e.validate[0].m_star_per_pair);
+    EXPECT_EQ(e.validate[1].label, "moon");
+    EXPECT_EQ(e.validate[1].dataset_dir, "/abs/moon");
+    EXPECT_EQ(e.validate[1].view, "subsequent");
+    EXPECT_EQ(e.validate[1].reference, "odometry");
+    EXPECT_DOUBLE_EQ(*e.validate[1].m_star_per_pair, 0.08);
+    EXPECT_DOUBLE_EQ(*e.validate[2].m_star, 12);
+    EXPECT_FALSE(e.validate[3].m_star.has_value());
+}
+
 TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
     const Experiment e = load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\n"));
     EXPECT_EQ(e.optimize.size(), 9u);
@@ -93,6 +127,8 @@ TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
     EXPECT_EQ(e.view, "subsequent");
     EXPECT_EQ(e.reference, "gt");
     EXPECT_FALSE(e.generate.has_value());
+    EXPECT_TRUE(e.seeds.empty());
+    EXPECT_TRUE(e.validate.empty());
 }
 
 TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
@@ -107,6 +143,15 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "optimizer: {acquisition: pi}\n", "optimizer.acquisition: expected one of");
     expect_error(head + "start_points: [missing.yaml]\n", "start_points[0]: ");
     expect_error(head + "colour: blue\n", "exp.yaml:4: colour: unknown key");
+    expect_error(head + "seeds: [1, 2, 1]\n", "seeds[2]: seed 1 listed twice");
+    expect_error(head + "seeds: []\n", "seeds: expected a non-empty list");
+    expect_error(head + "validate: {dataset: ds}\n", "validate: expected a list");
+    expect_error(head + "validate: [{view: complete}]\n", "validate[0]: missing key 'dataset'");
+    expect_error(head + "validate: [{dataset: a, m_star: 3, m_star_per_pair: 0.1}]\n", "not both");
+    expect_error(head + "validate: [{dataset: a/x}, {dataset: b/x}]\n", "label 'x' used twice");
+    expect_error(head + "validate: [{dataset: a, reference: lidar}]\n", "validate[0].reference: expected one of");
+    expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: mars}}}]\n",
+                 "validate[0].dataset.generate.preset: expected one of");
     expect_error("name: x\ndataset: ds\n", "missing key 'space'");
     expect_error("name: x\nspace: nope.yaml\ndataset: ds\n", "space: ");
 }

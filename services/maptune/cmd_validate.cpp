@@ -1,0 +1,171 @@
+// maptune validate: the baseline, the best observed and the model's predicted best of a run,
+// scored on the experiment's held-out views (issue 11).
+#ifdef MAPTUNE_HAVE_EVALUATION
+#include <algorithm>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "commands.hpp"
+#include "compare_output.hpp"
+#include "dataset/io.hpp"
+#include "params/yaml_util.hpp"
+#include "validate_cli.hpp"
+
+namespace maptune::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using params::ConfigError;
+
+// Seed directories (seed-<n> with a run.yaml) of a repeated run, in seed order.
+std::vector<std::pair<std::uint64_t, fs::path>> seed_dirs(const fs::path& root) {
+    std::vector<std::pair<std::uint64_t, fs::path>> out;
+    if (!fs::is_directory(root)) return out;
+    for (const auto& entry : fs::directory_iterator(root)) {
+        const std::string name = entry.path().filename().string();
+        if (name.rfind("seed-", 0) != 0 || !fs::exists(entry.path() / "run.yaml")) continue;
+        try {
+            out.push_back({std::stoull(name.substr(5)), entry.path()});
+        } catch (const std::exception&) {
+            // not a seed directory
+        }
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+std::string default_db(const fs::path& run_dir) {
+    for (const fs::path& candidate : {run_dir / "observations.db", run_dir.parent_path() / "observations.db"}) {
+        if (fs::exists(candidate)) return candidate.string();
+    }
+    return (run_dir / "observations.db").string();
+}
+
+}  // namespace
+
+experiment::Experiment experiment_of_run(const fs::path& run_dir, const std::string& override_file) {
+    if (!override_file.empty()) return experiment::load_experiment(override_file);
+    const fs::path record = run_dir / "run.yaml";
+    if (!fs::exists(record)) {
+        throw ConfigError(record.string() + ": missing (not a run directory of this maptune version; give --experiment)");
+    }
+    const YAML::Node root = params::load_yaml_file(record.string());
+    const params::YamlPath where{record.string(), ""};
+    if (!root["experiment_file"].IsDefined()) where.fail(root, "missing key 'experiment_file'");
+    const std::string file = params::read_string(root["experiment_file"], where.child("experiment_file"));
+    if (file.empty() || !fs::exists(file)) {
+        where.child("experiment_file").fail(root["experiment_file"],
+                                            "experiment '" + file + "' is not there any more; give --experiment");
+    }
+    return experiment::load_experiment(file);
+}
+
+std::optional<double> recorded_best_p(const fs::path& run_dir) {
+    try {
+        const YAML::Node root = params::load_yaml_file((run_dir / "run.yaml").string());
+        if (root["best"] && root["best"]["p"]) return root["best"]["p"].as<double>();
+    } catch (const std::exception&) {
+        // no record: no training score to report
+    }
+    return std::nullopt;
+}
+
+evaluation::CompareResult validate_run_dir(const fs::path& run_dir, const experiment::Experiment& e,
+                                           const ValidateSettings& settings, std::ostream& out) {
+    const auto sets = evaluation::validation_sets(e, run_dir);
+    const std::string db_path = settings.db.empty() ? default_db(run_dir) : settings.db;
+    store::ObservationStore db(db_path);
+    evaluation::CompareOptions options;
+    options.matcher = evaluation::experiment_matcher_settings(e, settings.threads);
+    options.db = &db;
+    options.progress = [](const std::string& what) { std::cerr << "validate: " << what << "\n"; };
+    const auto result = evaluation::validate(e, sets, options);
+    dataset::write_file(run_dir / "validation.csv", evaluation::validation_csv(result));
+    int baseline = -1;
+    for (std::size_t i = 0; i < result.set_names.size(); ++i) {
+        if (result.set_names[i] == evaluation::kBaselineSet) baseline = static_cast<int>(i);
+    }
+    out << "\nvalidation of " << run_dir.string() << " (store " << db_path << "):\n\n";
+    write_compare(out, result, settings.format, baseline);
+    out << "written to " << (run_dir / "validation.csv").string() << "\n";
+    return result;
+}
+
+void write_seeds_summary(const fs::path& root, const std::vector<evaluation::SeedOutcome>& seeds,
+                         std::ostream& out) {
+    const std::string csv = evaluation::seeds_summary_csv(seeds);
+    dataset::write_file(root / "summary.csv", csv);
+    // The aggregate rows, transposed: one line per score.
+    std::vector<std::vector<std::string>> rows;
+    std::istringstream in(csv);
+    std::string line;
+    while (std::getline(in, line)) {
+        std::vector<std::string> cells;
+        std::string cell;
+        std::istringstream l(line);
+        while (std::getline(l, cell, ',')) cells.push_back(cell);
+        rows.push_back(cells);
+    }
+    Table t;
+    t.columns = {"score", "median", "min", "max", "spread"};
+    t.numeric = {false, true, true, true, true};
+    const std::size_t n_seeds = seeds.size();
+    for (std::size_t c = 1; c + 1 < rows.front().size(); ++c) {
+        std::vector<std::string> row{rows.front()[c]};
+        for (std::size_t r = 1 + n_seeds; r < rows.size() && r < 1 + n_seeds + 4; ++r) {
+            const std::string v = c < rows[r].size() ? rows[r][c] : "";
+            row.push_back(v.empty() ? "" : params::format_fixed(std::stod(v), 4));
+        }
+        t.rows.push_back(std::move(row));
+    }
+    out << "\nover " << n_seeds << " seeds (" << (root / "summary.csv").string() << "):\n\n";
+    write_table(out, t, TableFormat::kMarkdown);
+}
+
+void add_validate_command(CLI::App& app, int& exit_code) {
+    struct Options {
+        std::string run_dir, experiment;
+        ValidateSettings settings;
+    };
+    auto opt = std::make_shared<Options>();
+    auto* cmd = app.add_subcommand(
+        "validate",
+        "Score a run's baseline, best observed and predicted best on the experiment's held-out views "
+        "(validate: section); writes validation.csv. A run directory with seed-* directories (several "
+        "seeds) validates each and writes summary.csv.");
+    cmd->add_option("--run-dir", opt->run_dir, "run directory of `maptune run` or the optimizer")
+        ->required()->check(CLI::ExistingDirectory);
+    cmd->add_option("--experiment", opt->experiment,
+                    "experiment YAML (default: the one recorded in the run's run.yaml)")
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--db", opt->settings.db,
+                    "observation store (default: the run's observations.db, or its parent's)");
+    cmd->add_option("--threads", opt->settings.threads, "matcher threads, 0 = all cores")->capture_default_str();
+    cmd->add_option("-f,--format", opt->settings.format, "markdown | table | csv | json")
+        ->check(CLI::IsMember({"markdown", "table", "csv", "json"}))
+        ->capture_default_str();
+    cmd->callback([opt, &exit_code] {
+        try {
+            const fs::path root = opt->run_dir;
+            const auto seeds = fs::exists(root / "run.yaml") ? decltype(seed_dirs(root)){} : seed_dirs(root);
+            if (seeds.empty()) {
+                const auto e = experiment_of_run(root, opt->experiment);
+                validate_run_dir(root, e, opt->settings, std::cout);
+                return;
+            }
+            std::vector<evaluation::SeedOutcome> outcomes;
+            for (const auto& [seed, dir] : seeds) {
+                const auto e = experiment_of_run(dir, opt->experiment);
+                outcomes.push_back({seed, dir, recorded_best_p(dir), validate_run_dir(dir, e, opt->settings, std::cout)});
+            }
+            write_seeds_summary(root, outcomes, std::cout);
+        } catch (const std::exception& e) {
+            std::cerr << "maptune validate: " << e.what() << "\n";
+            exit_code = 2;
+        }
+    });
+}
+
+}  // namespace maptune::cli
+#endif

@@ -1,0 +1,145 @@
+#include "evaluation/validation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "params/yaml_util.hpp"
+#include "temp_dataset.hpp"
+
+namespace maptune::evaluation {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kSource = MAPTUNE_SOURCE_DIR;
+
+std::vector<std::string> lines(const std::string& text) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string l; std::getline(in, l);) out.push_back(l);
+    return out;
+}
+
+class ValidationTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = test::make_temp_dir("maptune_validation_test_");
+        fs::copy(kSource + "/configs/spaces/lru_matcher.yaml", dir_ / "space.yaml");
+        fs::copy(kSource + "/configs/params/x_baseline.yaml", dir_ / "x_baseline.yaml");
+        run_ = dir_ / "run";
+        fs::create_directories(run_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+    experiment::Experiment write_experiment(const std::string& validate) {
+        std::ofstream(dir_ / "exp.yaml") << "name: v\nspace: space.yaml\ndataset: train\n"
+                                            "start_points: [x_baseline.yaml]\n"
+                                         << validate;
+        return experiment::load_experiment((dir_ / "exp.yaml").string());
+    }
+    fs::path dir_, run_;
+};
+
+// The held-out view is generated on first use; the baseline matches, "best" (x_1D: every
+// keypoint filtered) scores 0, "predicted" equals the baseline and comes from the store; a
+// second validation evaluates nothing.
+TEST_F(ValidationTest, ScoresBaselineBestAndPredictedOnAGeneratedHeldOutView) {
+    const auto e = write_experiment(
+        "validate:\n  - label: held\n    dataset: {dir: held, generate: {preset: lab-tiny, runs: 1, "
+        "submaps: 4, seed: 7}}\n    m_star: 3\n");
+    fs::copy(kSource + "/configs/params/x_1D.yaml", run_ / "best_params.yaml");
+    fs::copy(kSource + "/configs/params/x_baseline.yaml", run_ / "predicted_best.yaml");
+    const auto sets = validation_sets(e, run_);
+    ASSERT_EQ(sets.size(), 3u);
+    EXPECT_EQ(sets[0].name, kBaselineSet);
+    EXPECT_EQ(sets[1].name, kBestSet);
+    EXPECT_EQ(sets[2].name, kPredictedSet);
+
+    store::ObservationStore db((dir_ / "obs.db").string());
+    CompareOptions options;
+    options.matcher = experiment_matcher_settings(e, 2);
+    options.db = &db;
+    std::vector<std::string> log;
+    options.progress = [&](const std::string& line) { log.push_back(line); };
+    const CompareResult r = validate(e, sets, options);
+    EXPECT_TRUE(fs::exists(dir_ / "held" / "manifest.yaml"));
+    ASSERT_FALSE(log.empty());
+    EXPECT_NE(log.front().find("generating dataset"), std::string::npos) << log.front();
+    ASSERT_EQ(r.columns.size(), 1u);
+    const auto& col = r.columns[0];
+    EXPECT_EQ(col.target.label, "held");
+    EXPECT_DOUBLE_EQ(col.settings.m_star, 3);
+    EXPECT_DOUBLE_EQ(col.settings.e_star, e.e_star);
+    const double base = col.cells[0].report.score.p, best = col.cells[1].report.score.p;
+    EXPECT_GT(base, 0);
+    EXPECT_EQ(best, 0);
+    EXPECT_DOUBLE_EQ(col.cells[2].report.score.p, base);
+    EXPECT_FALSE(col.cells[0].from_store);
+    EXPECT_TRUE(col.cells[2].from_store);
+
+    const auto csv = lines(validation_csv(r));
+    ASSERT_EQ(csv.size(), 4u);
+    EXPECT_EQ(csv[0].rfind("set,target,dataset_id,view,reference,pairs,m_star,p,", 0), 0u) << csv[0];
+    EXPECT_EQ(csv[1].rfind("baseline,held,", 0), 0u) << csv[1];
+    EXPECT_NE(csv[1].find(",complete,gt,6," + params::format_double(3.0) + ","), std::string::npos) << csv[1];
+    EXPECT_NE(csv[1].find("," + params::format_double(0.0) + ",0"), std::string::npos) << csv[1];
+    EXPECT_NE(csv[2].find("," + params::format_double(-base) + ",0"), std::string::npos) << csv[2];
+    EXPECT_EQ(csv[3].back(), '1');  // predicted: from the store
+
+    const CompareResult again = validate(e, sets, options);
+    for (const auto& c : again.columns[0].cells) EXPECT_TRUE(c.from_store);
+    EXPECT_DOUBLE_EQ(again.columns[0].cells[0].report.score.p, base);
+}
+
+TEST_F(ValidationTest, ErrorsNameWhatIsMissing) {
+    const auto none = write_experiment("");
+    fs::copy(kSource + "/configs/params/x_baseline.yaml", run_ / "best_params.yaml");
+    try {
+        validate(none, validation_sets(none, run_), {});
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("no 'validate' section"), std::string::npos) << err.what();
+    }
+    fs::remove(run_ / "best_params.yaml");
+    try {
+        validation_sets(none, run_);
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("best_params.yaml: missing"), std::string::npos) << err.what();
+    }
+    // No dataset and nothing to generate it from: named, before any matching.
+    const auto absent = write_experiment("validate: [{dataset: nowhere}]\n");
+    fs::copy(kSource + "/configs/params/x_baseline.yaml", run_ / "best_params.yaml");
+    try {
+        validate(absent, validation_sets(absent, run_), {});
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("nowhere: no dataset there"), std::string::npos) << err.what();
+    }
+}
+
+TEST(SeedSummaryTest, MedianMinMaxAndSpreadOverSeeds) {
+    const Spread s = spread({0.7, 0.5, 0.6, 0.9});
+    EXPECT_EQ(s.n, 4);
+    EXPECT_DOUBLE_EQ(s.median, 0.65);
+    EXPECT_DOUBLE_EQ(s.min, 0.5);
+    EXPECT_DOUBLE_EQ(s.max, 0.9);
+    EXPECT_DOUBLE_EQ(spread({0.3, 0.1, 0.2}).median, 0.2);
+    EXPECT_EQ(spread({}).n, 0);
+
+    // Two seeds without validation, one without a best: empty cells, statistics over what is there.
+    std::vector<SeedOutcome> seeds{{1, "runs/x/seed-1", 0.5, std::nullopt},
+                                   {2, "runs/x/seed-2", 0.7, std::nullopt},
+                                   {3, "runs/x/seed-3", std::nullopt, std::nullopt}};
+    const auto csv = lines(seeds_summary_csv(seeds));
+    ASSERT_EQ(csv.size(), 8u);
+    EXPECT_EQ(csv[0], "seed,best_p,run_dir");
+    EXPECT_EQ(csv[1], "1," + params::format_double(0.5) + ",seed-1");
+    EXPECT_EQ(csv[3], "3,,seed-3");
+    EXPECT_EQ(csv[4], "median," + params::format_double(0.6) + ",");
+    EXPECT_EQ(csv[7], "spread," + params::format_double(0.7 - 0.5) + ",");
+}
+
+}  // namespace
+}  // namespace maptune::evaluation
