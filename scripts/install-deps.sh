@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package maptune needs to build, test and run.
+# Installs every Debian 12 package maptune needs to build, test and run, and the report
+# renderer's npm packages (tools/report, pinned by its package-lock.json).
+# --test adds what only the tests need (Chromium, which opens the generated report).
 # Idempotent: packages already present are skipped, so a second run costs a few dpkg queries.
 set -euo pipefail
+cd "$(dirname "$0")/.."
 
 packages=(
   build-essential cmake pkg-config git ca-certificates python3
@@ -13,6 +16,9 @@ packages=(
   libfastrtps-dev fastddsgen fastdds-tools
   docker-compose
 )
+# Node.js renders reports; a machine that has it from elsewhere keeps its own.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
+if [ "${1:-}" = "--test" ]; then packages+=(chromium); fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -23,13 +29,19 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#packages[@]} packages present"
-  exit 0
+else
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  echo "install-deps: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=600 update -q
+  "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends -o DPkg::Lock::Timeout=600 "${missing[@]}"
 fi
 
-sudo_cmd=()
-if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
-
-echo "install-deps: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-"${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=600 update -q
-"${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends -o DPkg::Lock::Timeout=600 "${missing[@]}"
+# The report renderer's packages, exactly as locked; again only when the lock changed.
+stamp=tools/report/node_modules/.maptune-lock
+if ! cmp -s tools/report/package-lock.json "$stamp" 2>/dev/null; then
+  echo "install-deps: npm ci in tools/report"
+  (cd tools/report && npm ci --no-audit --no-fund --loglevel=error)
+  cp tools/report/package-lock.json "$stamp"
+fi

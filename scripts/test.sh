@@ -3,7 +3,7 @@
 # ctest. Extra arguments go to ctest (e.g. -R store).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install-deps.sh
+bash scripts/install-deps.sh --test
 cmake --preset release
 cmake --build --preset release
 ctest --preset release "$@"

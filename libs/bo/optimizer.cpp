@@ -144,14 +144,14 @@ Eigen::VectorXd Optimizer::next_design_point() {
     return fallback.size() > 0 ? fallback : make_point(design_.point(design_index_++)).u;
 }
 
-Optimizer::Model Optimizer::build_model() {
+void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best) const {
     const int d = space_.dim();
     std::vector<std::size_t> ok, failed;
     for (std::size_t i = 0; i < observations_.size(); ++i) {
         (observations_[i].failed ? failed : ok).push_back(i);
     }
     double worst = std::numeric_limits<double>::infinity();
-    double best = -std::numeric_limits<double>::infinity();
+    best = -std::numeric_limits<double>::infinity();
     for (std::size_t i : ok) {
         worst = std::min(worst, internal(observations_[i].value));
         best = std::max(best, internal(observations_[i].value));
@@ -159,8 +159,8 @@ Optimizer::Model Optimizer::build_model() {
     // Failures enter the model at the worst observed value so that the surrogate itself
     // steers away from their region (besides the hard exclusion radius).
     const auto n = static_cast<Eigen::Index>(ok.size() + failed.size());
-    Eigen::MatrixXd x(d, n);
-    Eigen::VectorXd y(n);
+    x.resize(d, n);
+    y.resize(n);
     Eigen::Index k = 0;
     for (std::size_t i : ok) {
         x.col(k) = observed_points_[i].g;
@@ -175,6 +175,55 @@ Optimizer::Model Optimizer::build_model() {
         y = copula(y);
         best = y.head(static_cast<Eigen::Index>(ok.size())).maxCoeff();
     }
+}
+
+AcquisitionContext Optimizer::acquisition_context(double incumbent) const {
+    AcquisitionContext ctx;
+    ctx.kind = options_.acquisition;
+    ctx.kappa = options_.ucb_kappa;
+    ctx.incumbent = incumbent;
+    if (ctx.kind == Acquisition::ucb_schedule) {
+        const double t = static_cast<double>(observations_.size() + pending_.size() + 1);
+        ctx.kappa = srinivas_kappa(space_.dim(), t, options_.schedule_delta, options_.schedule_scale);
+    }
+    return ctx;
+}
+
+void Optimizer::fit() { build_model(); }
+
+std::vector<PosteriorPoint> Optimizer::posterior(const std::vector<std::vector<double>>& points) const {
+    std::size_t ok = 0;
+    for (const auto& o : observations_) ok += o.failed ? 0 : 1;
+    if (ok < 2 || hp_.length_scales.size() != space_.dim()) return {};
+    Eigen::MatrixXd x;
+    Eigen::VectorXd y;
+    double best = 0;
+    model_data(x, y, best);
+    gp::GaussianProcess model(space_.dim(), options_.gp);
+    model.set_hyperparameters(hp_);
+    if (!model.set_data(x, y)) return {};
+    Eigen::MatrixXd g(space_.dim(), static_cast<Eigen::Index>(points.size()));
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        g.col(static_cast<Eigen::Index>(i)) = space_.to_model_input(space_.from_values(space_.canonical(points[i])));
+    }
+    Eigen::VectorXd mean, var;
+    model.predict(g, mean, var);
+    const Eigen::VectorXd acq = acquisition_values(acquisition_context(best), mean, var);
+    std::vector<PosteriorPoint> out(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const auto k = static_cast<Eigen::Index>(i);
+        out[i] = {internal(mean(k)), std::sqrt(std::max(0.0, var(k))), acq(k)};
+    }
+    return out;
+}
+
+Optimizer::Model Optimizer::build_model() {
+    const int d = space_.dim();
+    Eigen::MatrixXd x;
+    Eigen::VectorXd y;
+    double best = 0;
+    model_data(x, y, best);
+    const auto n = x.cols();
     gp::GpOptions gp_options = options_.gp;
     // After the first fit the previous optimum is a good start; the fixed one only costs time.
     if (last_fit_n_ > 0) gp_options.fit.fixed_start = false;
@@ -231,14 +280,7 @@ std::optional<PredictedBest> Optimizer::predicted_best() const {
 
 Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_t seed) {
     const int d = space_.dim();
-    AcquisitionContext ctx;
-    ctx.kind = options_.acquisition;
-    ctx.kappa = options_.ucb_kappa;
-    ctx.incumbent = model.incumbent;
-    if (ctx.kind == Acquisition::ucb_schedule) {
-        const double t = static_cast<double>(observations_.size() + pending_.size() + 1);
-        ctx.kappa = srinivas_kappa(d, t, options_.schedule_delta, options_.schedule_scale);
-    }
+    const AcquisitionContext ctx = acquisition_context(model.incumbent);
 
     // Candidates: a freshly scrambled Halton set plus Gaussian perturbations of the best
     // observations at several scales (exploitation needs points near the incumbent).

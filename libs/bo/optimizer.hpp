@@ -60,6 +60,13 @@ struct PredictedBest {
     double std = 0.0;   // posterior standard deviation of the latent objective
 };
 
+// The model at one parameter set, in the caller's units (report figures: slices, grids).
+struct PosteriorPoint {
+    double mean = 0.0;
+    double std = 0.0;          // of the latent objective
+    double acquisition = 0.0;  // the optimizer's acquisition there (log EI: its log)
+};
+
 struct Proposal {
     std::uint64_t id = 0;
     std::vector<double> values;  // one per parameter, integers exact
@@ -101,6 +108,13 @@ class Optimizer {
     // Empty until two successful observations exist. Uses the hyperparameters of the last fit.
     std::optional<PredictedBest> predicted_best() const;
     const gp::Hyperparameters& hyperparameters() const { return hp_; }
+    // Fits the hyperparameters to the observations now, as the next ask() would (e.g. after
+    // rebuilding from a run's history, to draw the model it ended with).
+    void fit();
+    // The posterior and acquisition at `points` (values, one per parameter) under the last
+    // fit, with every observation in the model as when proposing (failures at the worst
+    // value; no pending points). Empty until two successful observations exist.
+    std::vector<PosteriorPoint> posterior(const std::vector<std::vector<double>>& points) const;
     int initial_points() const;
 
   private:
@@ -121,6 +135,10 @@ class Optimizer {
     bool near_failure(const Eigen::VectorXd& g) const;
     Eigen::VectorXd next_design_point();
     Model build_model();
+    // Model inputs and internal values of every observation (failures at the worst value)
+    // and the best internal value.
+    void model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best) const;
+    AcquisitionContext acquisition_context(double incumbent) const;
     Eigen::VectorXd maximize_acquisition(const Model& model, std::uint64_t seed);
     bool resolve(std::uint64_t id, const Observation& observation);
 

@@ -16,6 +16,7 @@
 #include "dataset_mirror.hpp"
 #include "dds/participant.hpp"
 #include "experiment/experiment.hpp"
+#include "experiment/run_files.hpp"
 #include "maptunePubSubTypes.h"
 #include "scoring/scoring.hpp"
 
@@ -33,17 +34,7 @@ struct OptimizerServiceOptions {
     std::function<void(const std::string&)> log;  // one line per event; default: stdout
 };
 
-struct EvaluationRecord {
-    int number = 0;                  // 1-based, in order of completion
-    params::ParameterSet params;     // full rounded set that was evaluated
-    bool failed = false;
-    std::string error;
-    bool from_store = false;
-    double p = 0, v = 0, eps = 0;
-    std::size_t m = 0;
-    double wall_s = 0;
-    std::string origin;              // "start", "initial", "model", "resumed"
-};
+using experiment::EvaluationRecord;
 
 struct RunSummary {
     std::vector<EvaluationRecord> evaluations;
@@ -90,9 +81,7 @@ private:
     double started_s_ = 0;
 };
 
-// trials.csv of a run directory: header and one line per evaluation.
-std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space);
-std::vector<EvaluationRecord> read_trials_csv(const std::filesystem::path& file,
-                                              const params::ParameterSpace& space);
+using experiment::read_trials_csv;
+using experiment::trials_csv;
 
 }  // namespace maptune::services

@@ -4,14 +4,49 @@
 #include "embedded.hpp"
 #include "runtime.hpp"
 #include "validate_cli.hpp"
+#ifdef MAPTUNE_HAVE_REPORT
+#include "report_cli.hpp"
+#endif
 
 #include <iostream>
 
 namespace maptune::cli {
+namespace {
+
+// Scores every seed's baseline, best and predicted best on the experiment's validate: views
+// (the PCL matcher, locally, after the services stopped); summary.csv for several seeds.
+void validate(const services::EmbeddedOptions& opt, const services::EmbeddedResult& result, bool skip,
+              int& exit_code) {
+    const auto& e = result.experiment;
+    if (skip || e.validate.empty()) return;
+    if (opt.analytic) {
+        std::cout << "\nvalidation skipped: the analytic test matcher has no held-out views\n";
+        return;
+    }
+    try {
+        ValidateSettings settings;
+        settings.db = result.db_path;
+        std::vector<evaluation::SeedOutcome> outcomes;
+        for (const auto& run : result.runs) {
+            std::optional<double> best;
+            if (run.summary.best >= 0) best = run.summary.evaluations[static_cast<std::size_t>(run.summary.best)].p;
+            outcomes.push_back({run.seed, run.run_dir, best, validate_run_dir(run.run_dir, e, settings, std::cout)});
+        }
+        if (result.runs.size() > 1 || result.runs.front().run_dir != result.root) {
+            write_seeds_summary(result.root, outcomes, std::cout);
+        }
+    } catch (const std::exception& err) {
+        std::cerr << "maptune run: validation: " << err.what() << "\n";
+        exit_code = 1;
+    }
+}
+
+}  // namespace
 
 void add_run_command(CLI::App& app, int& exit_code) {
     auto opt = std::make_shared<services::EmbeddedOptions>();
     auto no_validate = std::make_shared<bool>(false);
+    auto no_report = std::make_shared<bool>(false);
     auto* cmd = app.add_subcommand(
         "run", "Tune: run an experiment with all services in this process (dataset_server, "
                "sample_db, workers, optimizer) on a private loopback DDS domain.");
@@ -33,35 +68,25 @@ void add_run_command(CLI::App& app, int& exit_code) {
                     "(default: the experiment's seeds, else its one seed)")
         ->delimiter(',');
     cmd->add_flag("--no-validate", *no_validate, "skip the validation on the experiment's validate: views");
-    cmd->callback([opt, no_validate, &exit_code] {
+    cmd->add_flag("--no-report", *no_report, "skip the HTML report (<run-dir>/report/index.html)");
+    cmd->callback([opt, no_validate, no_report, &exit_code] {
         services::EmbeddedResult result;
         exit_code = services::run_embedded(*opt, &result);
-        // Validation runs the PCL matcher locally, after the services stopped.
-        const auto& e = result.experiment;
-        if (exit_code != 0 || *no_validate || e.validate.empty() || result.runs.empty() ||
-            services::stop_requested()) {
-            return;
-        }
-        if (opt->analytic) {
-            std::cout << "\nvalidation skipped: the analytic test matcher has no held-out views\n";
-            return;
-        }
+        if (exit_code != 0 || result.runs.empty() || services::stop_requested()) return;
+        validate(*opt, result, *no_validate, exit_code);
+#ifdef MAPTUNE_HAVE_REPORT
+        if (*no_report) return;
+        // The report is a view of the results: a machine without Node.js still has them all.
         try {
-            ValidateSettings settings;
-            settings.db = result.db_path;
-            std::vector<evaluation::SeedOutcome> outcomes;
-            for (const auto& run : result.runs) {
-                std::optional<double> best;
-                if (run.summary.best >= 0) best = run.summary.evaluations[static_cast<std::size_t>(run.summary.best)].p;
-                outcomes.push_back({run.seed, run.run_dir, best, validate_run_dir(run.run_dir, e, settings, std::cout)});
-            }
-            if (result.runs.size() > 1 || result.runs.front().run_dir != result.root) {
-                write_seeds_summary(result.root, outcomes, std::cout);
-            }
+            const auto out = result.root / "report";
+            write_report({result.root.string()}, out, {}, 0);
+            std::cout << "\nreport: " << (out / "index.html").string() << "\n";
         } catch (const std::exception& err) {
-            std::cerr << "maptune run: validation: " << err.what() << "\n";
-            exit_code = 1;
+            std::cerr << "maptune run: no report: " << err.what() << "\n";
         }
+#else
+        (void)no_report;
+#endif
     });
 }
 

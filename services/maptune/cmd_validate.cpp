@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "compare_output.hpp"
 #include "dataset/io.hpp"
+#include "experiment/run_files.hpp"
 #include "params/yaml_util.hpp"
 #include "validate_cli.hpp"
 
@@ -18,47 +19,16 @@ namespace {
 namespace fs = std::filesystem;
 using params::ConfigError;
 
-// Seed directories (seed-<n> with a run.yaml) of a repeated run, in seed order.
-std::vector<std::pair<std::uint64_t, fs::path>> seed_dirs(const fs::path& root) {
-    std::vector<std::pair<std::uint64_t, fs::path>> out;
-    if (!fs::is_directory(root)) return out;
-    for (const auto& entry : fs::directory_iterator(root)) {
-        const std::string name = entry.path().filename().string();
-        if (name.rfind("seed-", 0) != 0 || !fs::exists(entry.path() / "run.yaml")) continue;
-        try {
-            out.push_back({std::stoull(name.substr(5)), entry.path()});
-        } catch (const std::exception&) {
-            // not a seed directory
-        }
-    }
-    std::sort(out.begin(), out.end());
-    return out;
-}
-
 std::string default_db(const fs::path& run_dir) {
-    for (const fs::path& candidate : {run_dir / "observations.db", run_dir.parent_path() / "observations.db"}) {
-        if (fs::exists(candidate)) return candidate.string();
-    }
-    return (run_dir / "observations.db").string();
+    const std::string found = experiment::run_store_path(run_dir);
+    return found.empty() ? (run_dir / "observations.db").string() : found;
 }
 
 }  // namespace
 
 experiment::Experiment experiment_of_run(const fs::path& run_dir, const std::string& override_file) {
-    if (!override_file.empty()) return experiment::load_experiment(override_file);
-    const fs::path record = run_dir / "run.yaml";
-    if (!fs::exists(record)) {
-        throw ConfigError(record.string() + ": missing (not a run directory of this maptune version; give --experiment)");
-    }
-    const YAML::Node root = params::load_yaml_file(record.string());
-    const params::YamlPath where{record.string(), ""};
-    if (!root["experiment_file"].IsDefined()) where.fail(root, "missing key 'experiment_file'");
-    const std::string file = params::read_string(root["experiment_file"], where.child("experiment_file"));
-    if (file.empty() || !fs::exists(file)) {
-        where.child("experiment_file").fail(root["experiment_file"],
-                                            "experiment '" + file + "' is not there any more; give --experiment");
-    }
-    return experiment::load_experiment(file);
+    return experiment::load_experiment(override_file.empty() ? experiment::recorded_experiment_file(run_dir)
+                                                             : override_file);
 }
 
 std::optional<double> recorded_best_p(const fs::path& run_dir) {
@@ -148,7 +118,7 @@ void add_validate_command(CLI::App& app, int& exit_code) {
     cmd->callback([opt, &exit_code] {
         try {
             const fs::path root = opt->run_dir;
-            const auto seeds = fs::exists(root / "run.yaml") ? decltype(seed_dirs(root)){} : seed_dirs(root);
+            const auto seeds = fs::exists(root / "run.yaml") ? decltype(experiment::seed_run_dirs(root)){} : experiment::seed_run_dirs(root);
             if (seeds.empty()) {
                 const auto e = experiment_of_run(root, opt->experiment);
                 validate_run_dir(root, e, opt->settings, std::cout);

@@ -22,6 +22,9 @@ void add_sweep_command(CLI::App& app, int& exit_code);
 void add_compare_command(CLI::App& app, int& exit_code);
 void add_validate_command(CLI::App& app, int& exit_code);
 #endif
+#ifdef MAPTUNE_HAVE_REPORT
+void add_report_command(CLI::App& app, int& exit_code);
+#endif
 #ifdef MAPTUNE_HAVE_DATASET
 void add_dataset_command(CLI::App& app, int& exit_code);
 #endif

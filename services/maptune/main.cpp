@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
     maptune::cli::add_compare_command(app, exit_code);
     maptune::cli::add_validate_command(app, exit_code);
 #endif
+#ifdef MAPTUNE_HAVE_REPORT
+    maptune::cli::add_report_command(app, exit_code);
+#endif
 #ifdef MAPTUNE_HAVE_DATASET
     maptune::cli::add_dataset_command(app, exit_code);
 #endif

@@ -219,6 +219,12 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
     EXPECT_NE(summary.find("\nspread,"), std::string::npos) << summary;
     EXPECT_NE(run.out.find("over 2 seeds"), std::string::npos) << run.out;
     EXPECT_NE(run.out.find("held p - baseline"), std::string::npos) << run.out;
+#ifdef MAPTUNE_CLI_HAS_REPORT
+    // The report of all seeds: the band over the runs and one section per seed.
+    const std::string page = slurp(root / "report" / "index.html");
+    EXPECT_NE(page.find("history_band"), std::string::npos);
+    EXPECT_NE(page.find("Over 2 runs"), std::string::npos);
+#endif
 
     const CliRun again = maptune("validate --run-dir " + root.string() + " -f csv");
     ASSERT_EQ(again.exit_code, 0) << again.err;

@@ -1,0 +1,48 @@
+#pragma once
+// The files of a run directory that more than one tool reads: trials.csv (one line per
+// evaluation, written by the optimizer) and run.yaml (the run record: what ran, on what,
+// when). `maptune validate`, `maptune report` and a resuming optimizer read them.
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "params/parameter_set.hpp"
+#include "params/parameter_space.hpp"
+
+namespace maptune::experiment {
+
+struct EvaluationRecord {
+    int number = 0;                  // 1-based, in order of completion
+    params::ParameterSet params;     // full rounded set that was evaluated
+    bool failed = false;
+    std::string error;
+    bool from_store = false;
+    double p = 0, v = 0, eps = 0;
+    std::size_t m = 0;
+    double wall_s = 0;
+    std::string origin;              // "start", "initial", "model", "resumed"
+};
+
+// trials.csv of a run directory: header and one line per evaluation.
+std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space);
+// Empty when the file does not exist; throws params::ConfigError naming file and line when
+// it does not match the space or a cell is not a number.
+std::vector<EvaluationRecord> read_trials_csv(const std::filesystem::path& file,
+                                              const params::ParameterSpace& space);
+
+// The experiment file recorded in <run_dir>/run.yaml. Throws params::ConfigError naming
+// run.yaml and the key when there is none or it no longer exists.
+std::string recorded_experiment_file(const std::filesystem::path& run_dir);
+
+// The seed-<n> subdirectories (each with a run.yaml) of a repeated run, in seed order; empty
+// when there are none.
+std::vector<std::pair<std::uint64_t, std::filesystem::path>> seed_run_dirs(const std::filesystem::path& root);
+
+// The observation store of a run: <run_dir>/observations.db, else its parent's (a seed of a
+// repeated run); empty when neither exists.
+std::string run_store_path(const std::filesystem::path& run_dir);
+
+}  // namespace maptune::experiment
