@@ -9,6 +9,7 @@
 namespace maptune::experiment {
 
 namespace fs = std::filesystem;
+using params::YamlPath;
 
 namespace {
 
@@ -87,21 +88,55 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
     return out;
 }
 
-std::string recorded_experiment_file(const fs::path& run_dir) {
-    const fs::path record = run_dir / "run.yaml";
-    if (!fs::exists(record)) {
-        throw params::ConfigError(record.string() +
+RunRecord read_run_record(const fs::path& run_dir) {
+    const fs::path file = run_dir / "run.yaml";
+    if (!fs::exists(file)) {
+        throw params::ConfigError(file.string() +
                                   ": missing (not a run directory of this maptune version; give --experiment)");
     }
-    const YAML::Node root = params::load_yaml_file(record.string());
-    const params::YamlPath where{record.string(), ""};
-    if (!root["experiment_file"].IsDefined()) where.fail(root, "missing key 'experiment_file'");
-    const std::string file = params::read_string(root["experiment_file"], where.child("experiment_file"));
+    const YAML::Node root = params::load_yaml_file(file.string());
+    const params::YamlPath where{file.string(), ""};
+    params::require_map(root, where);
+    auto text = [&](const YAML::Node& n, const YamlPath& p) { return n.IsDefined() ? params::read_string(n, p) : ""; };
+    RunRecord r;
+    r.experiment_file = text(root["experiment_file"], where.child("experiment_file"));
+    r.state = text(root["state"], where.child("state"));
+    if (const YAML::Node d = root["dataset"]; d.IsDefined()) {
+        const auto p = where.child("dataset");
+        params::require_map(d, p);
+        r.dataset_dir = text(d["dir"], p.child("dir"));
+        r.dataset_id = text(d["id"], p.child("id"));
+        r.view = text(d["view"], p.child("view"));
+        r.reference = text(d["reference"], p.child("reference"));
+    }
+    if (const YAML::Node m = root["matcher"]; m.IsDefined()) {
+        const auto p = where.child("matcher");
+        params::require_map(m, p);
+        r.matcher_id = text(m["id"], p.child("id"));
+        r.matcher_version = text(m["version"], p.child("version"));
+    }
+    if (root["measure"].IsDefined() && root["measure"]["m_star"].IsDefined()) {
+        r.m_star = params::read_finite_double(root["measure"]["m_star"], where.child("measure").child("m_star"));
+    }
+    if (root["best"].IsDefined() && root["best"]["p"].IsDefined()) {
+        r.best_p = params::read_finite_double(root["best"]["p"], where.child("best").child("p"));
+    }
+    return r;
+}
+
+std::string recorded_experiment_file(const fs::path& run_dir) {
+    const std::string file = read_run_record(run_dir).experiment_file;
     if (file.empty() || !fs::exists(file)) {
-        where.child("experiment_file").fail(root["experiment_file"],
-                                            "experiment '" + file + "' is not there any more; give --experiment");
+        throw params::ConfigError((run_dir / "run.yaml").string() + ": experiment_file: '" + file +
+                                  "' is not there any more; give --experiment");
     }
     return file;
+}
+
+store::ObservationKey observation_key(const RunRecord& run, const params::ParameterSpace& space,
+                                      const params::ParameterSet& set) {
+    return {run.dataset_id, run.view, run.matcher_id, run.matcher_version,
+            space.canonical_key(space.round(space.complete(set)))};
 }
 
 std::vector<std::pair<std::uint64_t, fs::path>> seed_run_dirs(const fs::path& root) {
@@ -117,6 +152,22 @@ std::vector<std::pair<std::uint64_t, fs::path>> seed_run_dirs(const fs::path& ro
         }
     }
     std::sort(out.begin(), out.end());
+    return out;
+}
+
+std::vector<fs::path> expand_run_dirs(const std::vector<fs::path>& dirs) {
+    std::vector<fs::path> out;
+    for (const auto& d : dirs) {
+        if (fs::exists(d / "run.yaml")) {
+            out.push_back(d);
+            continue;
+        }
+        const auto seeds = experiment::seed_run_dirs(d);
+        if (seeds.empty()) {
+            throw params::ConfigError(d.string() + ": not a run directory (no run.yaml, no seed-*/run.yaml)");
+        }
+        for (const auto& s : seeds) out.push_back(s.second);
+    }
     return out;
 }
 

@@ -11,6 +11,7 @@
 
 #include "params/parameter_set.hpp"
 #include "params/parameter_space.hpp"
+#include "store/observation_store.hpp"
 
 namespace maptune::experiment {
 
@@ -33,13 +34,33 @@ std::string trials_csv(const std::vector<EvaluationRecord>& records, const param
 std::vector<EvaluationRecord> read_trials_csv(const std::filesystem::path& file,
                                               const params::ParameterSpace& space);
 
+// What <run_dir>/run.yaml records (services/lib/optimizer_service.cpp writes it).
+struct RunRecord {
+    std::string experiment_file;
+    std::string dataset_dir, dataset_id, view, reference;
+    std::string matcher_id, matcher_version;
+    double m_star = 0;
+    std::string state;              // running | finished
+    std::optional<double> best_p;   // finished runs with a successful evaluation
+};
+// Throws params::ConfigError naming run.yaml (and the key) when it is missing or malformed.
+RunRecord read_run_record(const std::filesystem::path& run_dir);
+
 // The experiment file recorded in <run_dir>/run.yaml. Throws params::ConfigError naming
 // run.yaml and the key when there is none or it no longer exists.
 std::string recorded_experiment_file(const std::filesystem::path& run_dir);
 
+// The store key of a set the run evaluated (dataset, view, matcher and version of the run).
+store::ObservationKey observation_key(const RunRecord& run, const params::ParameterSpace& space,
+                                      const params::ParameterSet& set);
+
 // The seed-<n> subdirectories (each with a run.yaml) of a repeated run, in seed order; empty
 // when there are none.
 std::vector<std::pair<std::uint64_t, std::filesystem::path>> seed_run_dirs(const std::filesystem::path& root);
+
+// Run directories: each of `dirs` that has a run.yaml, and for one that has not, its seed-*
+// runs (a repeated run). Throws params::ConfigError naming a directory that is neither.
+std::vector<std::filesystem::path> expand_run_dirs(const std::vector<std::filesystem::path>& dirs);
 
 // The observation store of a run: <run_dir>/observations.db, else its parent's (a seed of a
 // repeated run); empty when neither exists.

@@ -95,22 +95,6 @@ std::vector<double> axis_values(const bo::ParameterSpec& spec, int n) {
 
 }  // namespace
 
-std::vector<fs::path> expand_run_dirs(const std::vector<fs::path>& dirs) {
-    std::vector<fs::path> out;
-    for (const auto& d : dirs) {
-        if (fs::exists(d / "run.yaml")) {
-            out.push_back(d);
-            continue;
-        }
-        const auto seeds = experiment::seed_run_dirs(d);
-        if (seeds.empty()) {
-            throw ConfigError(d.string() + ": not a run directory (no run.yaml, no seed-*/run.yaml)");
-        }
-        for (const auto& s : seeds) out.push_back(s.second);
-    }
-    return out;
-}
-
 json run_data(const fs::path& run_dir, const ReportOptions& options) {
     const fs::path record_file = run_dir / "run.yaml";
     if (!fs::exists(record_file)) throw ConfigError(record_file.string() + ": missing (not a run directory)");
@@ -129,9 +113,8 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     out["record"] = yaml_json(record);
     json notes = json::array();
 
-    const double m_star = record["measure"] && record["measure"]["m_star"]
-                              ? record["measure"]["m_star"].as<double>()
-                              : (e.m_star ? *e.m_star : 0.0);
+    const experiment::RunRecord run = experiment::read_run_record(run_dir);
+    const double m_star = run.m_star > 0 ? run.m_star : (e.m_star ? *e.m_star : 0.0);
     const measure::MeasureSettings settings{e.e_star, m_star, e.w_v};
     out["measure"] = {{"e_star", e.e_star}, {"m_star", m_star}, {"w_v", e.w_v}};
 
@@ -190,9 +173,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     std::optional<dataset::Dataset> ds;
     std::vector<dataset::SubmapPair> pairs;
     std::unique_ptr<store::ObservationStore> db;
-    const std::string dataset_dir = record["dataset"] && record["dataset"]["dir"]
-                                        ? record["dataset"]["dir"].as<std::string>()
-                                        : e.dataset_dir;
+    const std::string dataset_dir = run.dataset_dir.empty() ? e.dataset_dir : run.dataset_dir;
     const std::string db_path = options.db.empty() ? experiment::run_store_path(run_dir) : options.db;
     try {
         if (db_path.empty()) throw std::runtime_error("no observation store next to the run (give --db)");
@@ -203,12 +184,6 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
         notes.push_back(std::string("per-pair errors left out: ") + err.what());
         db.reset();
     }
-    const std::string version = record["matcher"] && record["matcher"]["version"]
-                                    ? record["matcher"]["version"].as<std::string>()
-                                    : "";
-    const std::string matcher_id = record["matcher"] && record["matcher"]["id"]
-                                       ? record["matcher"]["id"].as<std::string>()
-                                       : "lru_matcher";
     json step_list = json::array();
     for (const int i : steps) {
         const auto& r = trials[static_cast<std::size_t>(i)];
@@ -220,8 +195,9 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
                      {"m", r.m}};
         json errors = json::array();
         if (db && ds) {
-            const store::ObservationKey key{ds->manifest().id, e.view, matcher_id, version,
-                                            e.space.canonical_key(e.space.round(e.space.complete(r.params)))};
+            experiment::RunRecord on_disk = run;
+            on_disk.dataset_id = ds->manifest().id;  // the dataset as it is now, not as recorded
+            const store::ObservationKey key = experiment::observation_key(on_disk, e.space, r.params);
             if (const auto obs = db->get(key)) {
                 const auto rep = scoring::score_observation(*ds, pairs, obs->pairs, settings);
                 for (const auto& ps : rep.per_pair) {
@@ -328,7 +304,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
 
 json report_data(const std::vector<fs::path>& dirs, const ReportOptions& options) {
     json runs = json::array();
-    for (const auto& d : expand_run_dirs(dirs)) runs.push_back(run_data(d, options));
+    for (const auto& d : experiment::expand_run_dirs(dirs)) runs.push_back(run_data(d, options));
     return {{"runs", runs}};
 }
 

@@ -20,17 +20,12 @@ struct ReportOptions {
     std::string grid_x, grid_y;     // grid parameters; empty: the two shortest length scales
 };
 
-// Run directories to report on: a directory with a run.yaml, or one whose seed-*
-// subdirectories have one (a repeated run). Throws params::ConfigError naming a directory
-// that is neither.
-std::vector<std::filesystem::path> expand_run_dirs(const std::vector<std::filesystem::path>& dirs);
-
 // The data of one run directory. Throws params::ConfigError naming the file and what is wrong
 // (no run.yaml, trials.csv not matching the experiment's space, ...). A missing store or
 // dataset only leaves the per-pair errors out (noted in "notes").
 nlohmann::json run_data(const std::filesystem::path& run_dir, const ReportOptions& options);
 
-// {"runs": [run_data...]} for every expanded directory.
+// {"runs": [run_data...]} for every run of `dirs` (experiment::expand_run_dirs).
 nlohmann::json report_data(const std::vector<std::filesystem::path>& dirs, const ReportOptions& options);
 
 }  // namespace maptune::report

@@ -16,6 +16,7 @@
 #include "dataset/io.hpp"
 #include "params/parameter_space.hpp"
 #include "params/yaml_util.hpp"
+#include "experiment/run_files.hpp"
 #include "report_cli.hpp"
 #ifdef MAPTUNE_HAVE_SERVICES
 #include "runtime.hpp"
@@ -75,7 +76,7 @@ std::string signature(const std::vector<std::string>& run_dirs) {
     std::vector<fs::path> dirs(run_dirs.begin(), run_dirs.end());
     std::vector<fs::path> expanded;
     try {
-        expanded = report::expand_run_dirs(dirs);
+        expanded = experiment::expand_run_dirs(dirs);
     } catch (const std::exception&) {
         return s;  // not there yet
     }

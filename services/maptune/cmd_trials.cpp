@@ -8,6 +8,8 @@
 #include <set>
 
 #include "commands.hpp"
+#include "experiment/experiment.hpp"
+#include "experiment/run_files.hpp"
 #include "params/parameter_space.hpp"
 #include "params/yaml_util.hpp"
 #include "store/observation_store.hpp"
@@ -105,6 +107,7 @@ void add_trials_command(CLI::App& app, int& exit_code) {
         std::size_t best = 0;
         std::vector<std::int64_t> remove;
         std::string import_from;
+        std::vector<std::string> run_dirs;
     };
     auto opt = std::make_shared<Options>();
     auto* cmd = app.add_subcommand(
@@ -114,6 +117,9 @@ void add_trials_command(CLI::App& app, int& exit_code) {
     cmd->add_option("-f,--format", opt->format, "output format: table | csv | json")
         ->check(CLI::IsMember({"table", "csv", "json"}))
         ->capture_default_str();
+    cmd->add_option("--run-dir", opt->run_dirs,
+                    "only the observations these runs evaluated (an experiment's runs; a repeated run's "
+                    "directory stands for its seed-* runs), scored as the run scored them unless --score-on");
     cmd->add_option("--dataset", opt->dataset, "only this dataset id (default: all)");
     cmd->add_option("--view", opt->view, "only this view, e.g. complete | subsequent (default: all)");
     cmd->add_option("--limit", opt->limit, "at most this many rows, 0 = all")->capture_default_str();
@@ -175,8 +181,41 @@ void add_trials_command(CLI::App& app, int& exit_code) {
             if (!opt->dataset.empty()) filter.dataset_id = opt->dataset;
             if (!opt->view.empty()) filter.view = opt->view;
             auto observations = db.list(filter);
+            // --run-dir: the keys of every set the runs evaluated, and the first run's measure.
+            std::optional<experiment::RunRecord> run_measure;
+            double run_e_star = 0.4, run_w_v = 0.5;
+            if (!opt->run_dirs.empty()) {
+                std::set<std::string> keys;
+                auto text = [](const store::ObservationKey& k) {
+                    return k.dataset_id + "|" + k.view + "|" + k.matcher_id + "|" + k.matcher_version + "|" + k.params_key;
+                };
+                const std::vector<std::filesystem::path> dirs(opt->run_dirs.begin(), opt->run_dirs.end());
+                for (const auto& dir : experiment::expand_run_dirs(dirs)) {
+                    const auto record = experiment::read_run_record(dir);
+                    const auto e = experiment::load_experiment(experiment::recorded_experiment_file(dir));
+                    for (const auto& r : experiment::read_trials_csv(dir / "trials.csv", e.space)) {
+                        keys.insert(text(experiment::observation_key(record, e.space, r.params)));
+                    }
+                    if (!run_measure) {
+                        run_measure = record;
+                        run_e_star = e.e_star;
+                        run_w_v = e.w_v;
+                    }
+                }
+                observations.erase(std::remove_if(observations.begin(), observations.end(),
+                                                  [&](const store::Observation& o) { return !keys.count(text(o.key)); }),
+                                   observations.end());
+            }
             std::vector<std::optional<TrialScore>> scores;
 #ifdef MAPTUNE_HAVE_SCORING
+            if (opt->score_on.empty() && run_measure && std::filesystem::exists(run_measure->dataset_dir)) {
+                // Scored as the run scored them (its dataset, reference and measure).
+                opt->score_on = run_measure->dataset_dir;
+                opt->reference = run_measure->reference.empty() ? opt->reference : run_measure->reference;
+                if (!opt->e_star) opt->e_star = run_e_star;
+                if (!opt->m_star && run_measure->m_star > 0) opt->m_star = run_measure->m_star;
+                opt->w_v = run_w_v;
+            }
             if (!opt->score_on.empty()) {
                 const auto ds = dataset::Dataset::open(opt->score_on);
                 const auto reference = dataset::parse_reference(opt->reference);

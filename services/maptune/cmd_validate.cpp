@@ -31,16 +31,6 @@ experiment::Experiment experiment_of_run(const fs::path& run_dir, const std::str
                                                              : override_file);
 }
 
-std::optional<double> recorded_best_p(const fs::path& run_dir) {
-    try {
-        const YAML::Node root = params::load_yaml_file((run_dir / "run.yaml").string());
-        if (root["best"] && root["best"]["p"]) return root["best"]["p"].as<double>();
-    } catch (const std::exception&) {
-        // no record: no training score to report
-    }
-    return std::nullopt;
-}
-
 evaluation::CompareResult validate_run_dir(const fs::path& run_dir, const experiment::Experiment& e,
                                            const ValidateSettings& settings, std::ostream& out) {
     const auto sets = evaluation::validation_sets(e, run_dir);
@@ -127,7 +117,7 @@ void add_validate_command(CLI::App& app, int& exit_code) {
             std::vector<evaluation::SeedOutcome> outcomes;
             for (const auto& [seed, dir] : seeds) {
                 const auto e = experiment_of_run(dir, opt->experiment);
-                outcomes.push_back({seed, dir, recorded_best_p(dir), validate_run_dir(dir, e, opt->settings, std::cout)});
+                outcomes.push_back({seed, dir, experiment::read_run_record(dir).best_p, validate_run_dir(dir, e, opt->settings, std::cout)});
             }
             write_seeds_summary(root, outcomes, std::cout);
         } catch (const std::exception& e) {

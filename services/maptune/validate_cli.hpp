@@ -32,8 +32,5 @@ evaluation::CompareResult validate_run_dir(const std::filesystem::path& run_dir,
 void write_seeds_summary(const std::filesystem::path& root, const std::vector<evaluation::SeedOutcome>& seeds,
                          std::ostream& out);
 
-// The best training p recorded in a run directory's run.yaml (empty when none).
-std::optional<double> recorded_best_p(const std::filesystem::path& run_dir);
-
 }  // namespace maptune::cli
 #endif

@@ -226,6 +226,21 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
     EXPECT_NE(page.find("Over 2 runs"), std::string::npos);
 #endif
 
+    // Listed by run: only what seed 2 evaluated, scored as the run scored it.
+    const CliRun listed = maptune("trials --db " + (root / "observations.db").string() + " --run-dir " +
+                                  (root / "seed-2").string() + " -f json");
+    ASSERT_EQ(listed.exit_code, 0) << listed.err;
+    const auto seed2 = nlohmann::json::parse(listed.out);
+    EXPECT_EQ(seed2.size(), 3u) << listed.out;  // 3 evaluations, all different sets
+    const auto all = nlohmann::json::parse(maptune("trials --db " + (root / "observations.db").string() + " -f json").out);
+    EXPECT_GT(all.size(), seed2.size());  // the other seed's and the held-out view's too
+    double best_listed = 0;
+    for (const auto& row : seed2) best_listed = std::max(best_listed, row["p"].get<double>());
+    const std::string record = slurp(root / "seed-2" / "run.yaml");
+    const auto at = record.find("\n  p: ");
+    ASSERT_NE(at, std::string::npos) << record;
+    EXPECT_NEAR(best_listed, std::stod(record.substr(at + 6)), 1e-4);
+
     const CliRun again = maptune("validate --run-dir " + root.string() + " -f csv");
     ASSERT_EQ(again.exit_code, 0) << again.err;
     EXPECT_EQ(again.err.find("generating"), std::string::npos) << again.err;
