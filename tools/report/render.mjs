@@ -80,51 +80,60 @@ function historyFigure() {
       width: 640, height: 260, data: { values }, layer: layers,
     };
   }
+  // Several runs: grouped by experiment (the seeds of one experiment share a band).
   const lines = [];
-  const byIndex = new Map();
+  const groups = new Map();  // experiment -> evaluation -> best-so-far values
   for (const run of runs) {
+    const experiment = run.record?.experiment ?? run.name;
+    if (!groups.has(experiment)) groups.set(experiment, new Map());
+    const byIndex = groups.get(experiment);
     for (const e of run.evaluations) {
       if (e.best_so_far === null) continue;
-      lines.push({ run: run.name, evaluation: e.evaluation, best_so_far: e.best_so_far });
+      lines.push({ experiment, run: run.name, evaluation: e.evaluation, best_so_far: e.best_so_far });
       if (!byIndex.has(e.evaluation)) byIndex.set(e.evaluation, []);
       byIndex.get(e.evaluation).push(e.best_so_far);
     }
   }
-  const band = [...byIndex.entries()].map(([evaluation, v]) => ({
-    evaluation, min: Math.min(...v), max: Math.max(...v), median: median(v), runs: v.length,
-  }));
-  const baselines = runs.map(baselineP).filter((x) => x !== null);
+  const band = [...groups.entries()].flatMap(([experiment, byIndex]) => [...byIndex.entries()].map(([evaluation, v]) => ({
+    experiment, evaluation, min: Math.min(...v), max: Math.max(...v), median: median(v), runs: v.length,
+  })));
+  const baselines = [...groups.keys()].map((experiment) => {
+    const b = runs.filter((r) => (r.record?.experiment ?? r.name) === experiment).map(baselineP).filter((x) => x !== null);
+    return b.length ? { experiment, p: median(b) } : null;
+  }).filter((x) => x);
+  const x = { field: 'evaluation', type: 'quantitative', title: 'evaluation', axis: { tickMinStep: 1, format: 'd' } };
+  const color = { field: 'experiment', type: 'nominal', title: 'experiment' };
   const layers = [
     {
       name: 'history_band', data: { values: band },
-      mark: { type: 'area', opacity: 0.25, color: '#1f77b4', interpolate: 'step-after' },
-      encoding: { x: { field: 'evaluation', type: 'quantitative', title: 'evaluation', axis: { tickMinStep: 1, format: 'd' } },
-                  y: { field: 'min', type: 'quantitative', title: 'best p so far', scale: { domain: [0, 1] } },
-                  y2: { field: 'max' } },
+      mark: { type: 'area', opacity: 0.2, interpolate: 'step-after' },
+      encoding: { x, y: { field: 'min', type: 'quantitative', title: 'best p so far', scale: { domain: [0, 1] } },
+                  y2: { field: 'max' }, color },
     },
     {
       name: 'history_runs', data: { values: lines },
-      mark: { type: 'line', interpolate: 'step-after', strokeWidth: 1, opacity: 0.6 },
-      encoding: { x: { field: 'evaluation', type: 'quantitative' }, y: { field: 'best_so_far', type: 'quantitative' },
-                  color: { field: 'run', type: 'nominal', title: 'run' } },
+      mark: { type: 'line', interpolate: 'step-after', strokeWidth: 1, opacity: 0.5 },
+      encoding: { x, y: { field: 'best_so_far', type: 'quantitative' }, color, detail: { field: 'run', type: 'nominal' },
+                  tooltip: [{ field: 'run' }, { field: 'evaluation' }, { field: 'best_so_far', format: '.4f' }] },
     },
     {
       name: 'history_median', data: { values: band },
-      mark: { type: 'line', interpolate: 'step-after', color: '#d62728', strokeWidth: 2.5 },
-      encoding: { x: { field: 'evaluation', type: 'quantitative' }, y: { field: 'median', type: 'quantitative' },
-                  tooltip: [{ field: 'evaluation' }, { field: 'median', format: '.4f' }, { field: 'min', format: '.4f' }, { field: 'max', format: '.4f' }] },
+      mark: { type: 'line', interpolate: 'step-after', strokeWidth: 2.5 },
+      encoding: { x, y: { field: 'median', type: 'quantitative' }, color,
+                  tooltip: [{ field: 'experiment' }, { field: 'evaluation' }, { field: 'runs' }, { field: 'median', format: '.4f' }, { field: 'min', format: '.4f' }, { field: 'max', format: '.4f' }] },
     },
   ];
   if (baselines.length) {
     layers.push({
-      name: 'history_baseline', data: { values: [{ p: median(baselines), label: 'baseline' }] },
-      mark: { type: 'rule', strokeDash: [6, 4], color: 'black' },
-      encoding: { y: { field: 'p', type: 'quantitative' } },
+      name: 'history_baseline', data: { values: baselines },
+      mark: { type: 'rule', strokeDash: [6, 4] },
+      encoding: { y: { field: 'p', type: 'quantitative' }, color, tooltip: [{ field: 'experiment' }, { field: 'p', format: '.4f' }] },
     });
   }
   return {
     $schema: SCHEMA,
-    title: { text: `best p so far over ${runs.length} runs`, subtitle: 'red: median; band: min–max; dashed: baseline' },
+    title: { text: `best p so far: ${runs.length} runs of ${groups.size} experiment${groups.size === 1 ? '' : 's'}`,
+             subtitle: 'thick: median over an experiment\'s runs (seeds); band: min–max; thin: each run; dashed: baseline' },
     width: 640, height: 260, layer: layers,
   };
 }
@@ -343,13 +352,16 @@ function validationTable(run) {
 // Several runs (seeds): median and spread of the best training p and of every validation score.
 function repeatsTable() {
   if (runs.length < 2) return '';
-  const rows = new Map([['best p (training view)', runs.map((r) => r.evaluations.find((e) => e.evaluation === r.best)?.p).filter((x) => x !== undefined)]]);
+  const rows = new Map();
+  const add = (key, value) => {
+    if (value === undefined || value === null) return;
+    if (!rows.has(key)) rows.set(key, []);
+    rows.get(key).push(value);
+  };
   for (const run of runs) {
-    for (const v of run.validation) {
-      const key = `${v.set} on ${v.target}`;
-      if (!rows.has(key)) rows.set(key, []);
-      rows.get(key).push(v.p);
-    }
+    const experiment = run.record?.experiment ?? run.name;
+    add(`${experiment}: best p (training view)`, run.evaluations.find((e) => e.evaluation === run.best)?.p);
+    for (const v of run.validation) add(`${experiment}: ${v.set} on ${v.target}`, v.p);
   }
   const body = [...rows.entries()].map(([k, xs]) => `<tr><td>${esc(k)}</td><td>${xs.length}</td><td>${fmt(median(xs))}</td>` +
     `<td>${fmt(Math.min(...xs))}</td><td>${fmt(Math.max(...xs))}</td><td>${fmt(Math.max(...xs) - Math.min(...xs))}</td></tr>`);
