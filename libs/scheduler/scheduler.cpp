@@ -44,7 +44,7 @@ bool Scheduler::submit(const std::string& job_key, JobSpec spec, const std::stri
     const std::size_t size = options_.shard_size == 0 ? std::max<std::size_t>(n, 1) : options_.shard_size;
     for (std::size_t begin = 0; begin < n; begin += size) {
         Shard shard;
-        shard.task_id = "t" + std::to_string(next_task_++);
+        shard.task_id = options_.task_prefix + "t" + std::to_string(next_task_++);
         shard.job_key = job_key;
         shard.begin = begin;
         shard.end = std::min(n, begin + size);

@@ -25,6 +25,9 @@ struct SchedulerOptions {
     double lease_s = 10.0;       // silence after which a worker's shards are re-assigned
     std::size_t shard_size = 8;  // pairs per shard; 0 = one shard per job
     int max_attempts = 3;        // assignments of one shard before its pairs are FAILED
+    // Prefix of every task id: a per-process incarnation, so results for tasks of an earlier
+    // life of sample_db (same counter, other parameters) are unknown tasks, never current ones.
+    std::string task_prefix;
 };
 
 struct WorkerInfo {

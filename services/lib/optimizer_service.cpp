@@ -31,6 +31,10 @@ OptimizerService::OptimizerService(dds::Participant& participant, DatasetMirror&
                                    OptimizerServiceOptions options)
     : participant_(participant), mirror_(mirror), options_(std::move(options)) {
     if (options_.experiment_id.empty()) options_.experiment_id = options_.experiment.name;
+    if (options_.incarnation.empty()) options_.incarnation = incarnation_id();
+    // Request ids "<experiment>/<incarnation>/<n>": unique across restarts and across
+    // optimizers of one name, so a late reply to an earlier life is never taken for ours.
+    request_prefix_ = options_.experiment_id + "/" + options_.incarnation + "/";
     requests_ = participant.writer<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest,
                                                                     dds::TopicQos::kReliable);
     best_ = participant.writer<v1::BestSoFarPubSubType>(dds::topics::kBestSoFar, dds::TopicQos::kLatched);
@@ -38,8 +42,8 @@ OptimizerService::OptimizerService(dds::Participant& participant, DatasetMirror&
                                                                dds::TopicQos::kLatched);
     participant.reader<v1::ObservationReplyPubSubType>(
         dds::topics::kObservationReply, dds::TopicQos::kReliable, [this](const v1::ObservationReply& r) {
-            // Replies for other optimizers share the topic: keep ours only.
-            if (r.request_id().rfind(options_.experiment_id + "/", 0) != 0) return;
+            // Replies for other optimizers (and earlier lives of this one) share the topic.
+            if (r.request_id().rfind(request_prefix_, 0) != 0) return;
             std::lock_guard<std::mutex> lock(mutex_);
             replies_.push_back(r);
         });
@@ -48,6 +52,18 @@ OptimizerService::OptimizerService(dds::Participant& participant, DatasetMirror&
             std::lock_guard<std::mutex> lock(mutex_);
             workers_[s.worker_id()] = s;
         });
+}
+
+bool OptimizerService::same_set(const v1::ObservationReply& reply, const v1::ObservationRequest& request) const {
+    const auto& space = options_.experiment.space;
+    auto key = [&](const std::vector<v1::NamedValue>& values) {
+        return space.canonical_key(space.round(space.complete(dds::from_msg(values))));
+    };
+    try {
+        return key(reply.params()) == key(request.params());
+    } catch (const std::exception&) {
+        return false;  // a set the space rejects is not ours
+    }
 }
 
 void OptimizerService::log(const std::string& line) const {
@@ -277,7 +293,7 @@ RunSummary OptimizerService::run() {
             InFlight f;
             f.proposal = pr.id;
             f.origin = pr.origin;
-            f.request.request_id(options_.experiment_id + "/" + std::to_string(++sequence));
+            f.request.request_id(request_prefix_ + std::to_string(++sequence));
             f.request.requester(options_.experiment_id);
             f.request.dataset_id(dataset_id);
             f.request.view(e.view);
@@ -298,6 +314,12 @@ RunSummary OptimizerService::run() {
         for (const auto& r : replies) {
             const auto it = in_flight.find(r.request_id());
             if (it == in_flight.end()) continue;  // a duplicate answer to a re-sent request
+            // The answer must be for the set we asked about: a reply whose set differs is
+            // someone else's (never told to the model); the request stays in flight.
+            if (r.ok() && !same_set(r, it->second.request)) {
+                log("ignored a reply to " + r.request_id() + " for another parameter set (" + r.params_key() + ")");
+                continue;
+            }
             const InFlight f = it->second;
             in_flight.erase(it);
             EvaluationRecord rec;

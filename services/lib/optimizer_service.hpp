@@ -27,6 +27,7 @@ struct OptimizerServiceOptions {
     std::string dataset_id;               // empty: read from the experiment's dataset dir
     std::filesystem::path run_dir;
     std::string experiment_id;            // empty: the experiment's name
+    std::string incarnation;              // empty: a fresh incarnation_id() (tests fix it)
     std::string matcher_id = "lru_matcher";
     double wait_s = 120;                  // for the dataset and the first compatible worker
     double resend_s = 15;                 // re-send an unanswered request (sample_db restarts)
@@ -61,6 +62,8 @@ private:
         std::string origin;
     };
     void log(const std::string& line) const;
+    // Whether a reply is for the parameter set of the request (rounded, completed keys).
+    bool same_set(const msg::v1::ObservationReply& reply, const msg::v1::ObservationRequest& request) const;
     void write_files(const RunSummary& summary) const;
     // run.yaml; `finished` adds the end time, wall time and stop reason.
     void write_run_record(const RunSummary& summary, bool finished) const;
@@ -76,6 +79,7 @@ private:
     std::vector<msg::v1::ObservationReply> replies_;
     std::map<std::string, msg::v1::WorkerStatus> workers_;
     std::string last_hyperparameters_;
+    std::string request_prefix_;  // "<experiment>/<incarnation>/"
     // For run.yaml.
     std::string dataset_id_, dataset_name_, matcher_version_, started_utc_;
     double started_s_ = 0;

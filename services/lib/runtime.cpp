@@ -3,8 +3,10 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdio>
 #include <ctime>
 #include <mutex>
+#include <random>
 
 namespace maptune::services {
 namespace {
@@ -40,6 +42,15 @@ void request_stop() { g_stop.store(true); }
 
 double now_s() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string incarnation_id() {
+    std::random_device rd;
+    const std::uint64_t bits = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^
+                               static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
+    char buf[16];
+    std::snprintf(buf, sizeof(buf), "%012llx", static_cast<unsigned long long>(bits & 0xffffffffffffULL));
+    return buf;
 }
 
 std::string make_id(const std::string& role) {

@@ -15,7 +15,12 @@ SampleDb::SampleDb(dds::Participant& participant, DatasetMirror& mirror, SampleD
     : mirror_(mirror),
       options_(std::move(options)),
       store_(options_.store_path),
-      scheduler_(options_.scheduler) {
+      scheduler_([this] {
+          // Task ids of this life of sample_db only (see incarnation_id).
+          auto o = options_.scheduler;
+          if (o.task_prefix.empty()) o.task_prefix = incarnation_id() + "-";
+          return o;
+      }()) {
     replies_ = participant.writer<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply,
                                                                  dds::TopicQos::kReliable);
     tasks_ = participant.writer<v1::EvaluationTaskPubSubType>(dds::topics::kEvaluationTask,

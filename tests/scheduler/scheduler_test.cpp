@@ -244,3 +244,37 @@ TEST(Scheduler, RandomizedChurnCompletesEveryJobOnce) {
 
 }  // namespace
 }  // namespace maptune::scheduler
+
+namespace maptune::scheduler {
+namespace {
+
+// After a restart the task counter starts again: with another incarnation prefix, the old
+// life's result for "its" task 1 is an unknown task, never the new life's task 1 (which
+// carries other parameters).
+TEST(Scheduler, TaskIdsOfAnEarlierIncarnationAreUnknown) {
+    SchedulerOptions before_o, after_o;
+    before_o.task_prefix = "aaaa-";
+    after_o.task_prefix = "bbbb-";
+    Scheduler before(before_o), after(after_o);
+    before.heartbeat(worker("w1"), 0);
+    after.heartbeat(worker("w1"), 0);
+    ASSERT_TRUE(before.submit("k1", job(2), "r1", 0));
+    JobSpec other = job(2);
+    other.params = {{"r_N", 0.9}};
+    ASSERT_TRUE(after.submit("k2", other, "r2", 0));
+    const auto old_tasks = before.schedule(0);
+    const auto new_tasks = after.schedule(0);
+    ASSERT_EQ(old_tasks.size(), 1u);
+    ASSERT_EQ(new_tasks.size(), 1u);
+    EXPECT_EQ(old_tasks[0].task_id.rfind("aaaa-", 0), 0u);
+    EXPECT_EQ(new_tasks[0].task_id.rfind("bbbb-", 0), 0u);
+    EXPECT_NE(old_tasks[0].task_id, new_tasks[0].task_id);
+    // The late result of the old life reaches the new one: ignored.
+    EXPECT_FALSE(after.complete(old_tasks[0].task_id, "w1", results_for(old_tasks[0]), 1).has_value());
+    const auto done = after.complete(new_tasks[0].task_id, "w1", results_for(new_tasks[0]), 1);
+    ASSERT_TRUE(done.has_value());
+    EXPECT_EQ(done->job_key, "k2");
+}
+
+}  // namespace
+}  // namespace maptune::scheduler
