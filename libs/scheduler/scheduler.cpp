@@ -125,7 +125,7 @@ std::optional<CompletedJob> Scheduler::finish_shard(Shard& shard, double now) {
     Job& job = jobs_.at(shard.job_key);
     if (--job.remaining > 0) return std::nullopt;
     CompletedJob done{shard.job_key, std::move(job.spec), std::move(job.requesters),
-                      std::move(job.pairs), job.started_at, now};
+                      std::move(job.pairs), job.started_at, now, job.worker_failures};
     for (const auto& id : job.shard_ids) shards_.erase(id);
     jobs_.erase(done.job_key);
     return done;
@@ -174,6 +174,7 @@ std::optional<CompletedJob> Scheduler::fail(const std::string& task_id,
         return std::nullopt;
     }
     Job& job = jobs_.at(shard.job_key);
+    job.worker_failures = true;
     for (std::size_t i = shard.begin; i < shard.end; ++i) {
         job.pairs[i].matched = false;
         job.pairs[i].status = store::PairStatus::kFailed;

@@ -63,6 +63,10 @@ struct CompletedJob {
     std::vector<std::string> requesters;        // everyone who asked while it ran
     std::vector<store::PairRecord> pairs;       // in spec.pair_ids order
     double started_at = 0, finished_at = 0;
+    // Some shard gave up after max_attempts worker failures (unloadable submap, fetch
+    // timeout, ...): its FAILED pairs say nothing about the parameters, so the job is an
+    // answer for the requesters now but not an observation to keep.
+    bool worker_failures = false;
 };
 
 class Scheduler {
@@ -116,6 +120,7 @@ private:
         std::vector<std::string> shard_ids;
         std::vector<store::PairRecord> pairs;
         std::size_t remaining = 0;
+        bool worker_failures = false;
         double started_at = 0;
     };
     struct Worker {

@@ -1,5 +1,8 @@
 #include "store/observation_store.hpp"
 
+#include <Eigen/LU>
+#include <cmath>
+
 #include <sqlite3.h>
 
 #include <chrono>
@@ -166,6 +169,23 @@ const char* to_string(PairStatus status) {
         case PairStatus::kTimeout: return "TIMEOUT";
     }
     return "UNKNOWN";
+}
+
+std::string check_pair_record(const PairRecord& r) {
+    if (!std::isfinite(r.duration_s) || r.duration_s < 0) return r.pair_id + ": duration is not a finite number >= 0";
+    if (!r.matched) return "";
+    if (!r.T_a_b_est.allFinite()) return r.pair_id + ": transform has a NaN or infinite entry";
+    const Eigen::Matrix3d R = r.T_a_b_est.topLeftCorner<3, 3>();
+    // Tolerances well above float round-off of a transform sent as doubles, far below any
+    // real scaling or shear.
+    if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6 ||
+        std::abs(R.determinant() - 1.0) > 1e-6) {
+        return r.pair_id + ": rotation is not orthonormal with determinant 1";
+    }
+    if ((r.T_a_b_est.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9) {
+        return r.pair_id + ": bottom row is not 0 0 0 1";
+    }
+    return "";
 }
 
 bool ObservationKey::operator==(const ObservationKey& o) const {

@@ -33,6 +33,11 @@ struct PairRecord {
     std::string reason;  // why FAILED/TIMEOUT; empty otherwise
 };
 
+// Empty when a record from a worker can be stored; otherwise what is wrong with it: a
+// matched pair needs a finite rigid transform (orthonormal rotation with determinant 1,
+// bottom row 0 0 0 1), and the duration must be finite and not negative.
+std::string check_pair_record(const PairRecord& record);
+
 struct ObservationKey {
     std::string dataset_id;       // content hash of the dataset
     std::string view;             // "complete" | "subsequent" | custom

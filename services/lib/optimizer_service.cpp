@@ -327,19 +327,27 @@ RunSummary OptimizerService::run() {
             rec.origin = f.origin;
             rec.wall_s = now_s() - f.sent_at;
             rec.from_store = r.from_store();
-            if (!r.ok()) {
-                rec.failed = true;
-                rec.error = r.error();
-                rec.params = e.space.round(dds::from_msg(f.request.params()));
-                opt.tell_failed(f.proposal, r.error());
-                log("evaluation " + std::to_string(rec.number) + ": failed: " + r.error());
+            // A reply that cannot be scored (a broken transform from an old sample_db, ...) is a
+            // failed evaluation, not the end of the run.
+            std::string reply_error = r.ok() ? "" : r.error();
+            if (reply_error.empty()) {
+                try {
+                    rec.params = dds::from_msg(r.params());
+                    const auto report = scoring::score_observation(*ds, pairs, dds::from_msg(r.pairs()), settings);
+                    rec.p = report.score.p;
+                    rec.v = report.score.v;
+                    rec.eps = report.score.eps;
+                    rec.m = report.score.m;
+                } catch (const std::exception& ex) {
+                    reply_error = std::string("cannot score the reply: ") + ex.what();
+                }
+            }
+            if (!reply_error.empty()) {
+                rec = EvaluationRecord{rec.number, e.space.round(dds::from_msg(f.request.params())), true, reply_error,
+                                       rec.from_store, 0, 0, 0, 0, rec.wall_s, rec.origin};
+                opt.tell_failed(f.proposal, reply_error);
+                log("evaluation " + std::to_string(rec.number) + ": failed: " + reply_error);
             } else {
-                rec.params = dds::from_msg(r.params());
-                const auto report = scoring::score_observation(*ds, pairs, dds::from_msg(r.pairs()), settings);
-                rec.p = report.score.p;
-                rec.v = report.score.v;
-                rec.eps = report.score.eps;
-                rec.m = report.score.m;
                 opt.tell(f.proposal, rec.p);
             }
             summary.evaluations.push_back(rec);

@@ -93,7 +93,13 @@ void SampleDb::loop() {
                 reply_error(request, std::string("internal error: ") + ex.what());
             }
         }
-        for (auto& job : scheduler_.take_completed()) finish(std::move(job));
+        for (auto& job : scheduler_.take_completed()) {
+            try {
+                finish(std::move(job));
+            } catch (const std::exception&) {
+                // A store I/O error: the job's requesters re-send and the job runs again.
+            }
+        }
         for (const auto& a : scheduler_.schedule(now_s())) {
             v1::EvaluationTask t;
             t.task_id(a.task_id);
@@ -213,9 +219,19 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
 }
 
 void SampleDb::handle_result(const v1::TaskResult& r) {
+    std::string invalid = r.ok() ? "" : r.error();
+    std::vector<store::PairRecord> pairs;
+    if (r.ok()) {
+        pairs = dds::from_msg(r.pairs());
+        // A broken result (NaN transform, ...) is a failed attempt: re-run elsewhere, never stored.
+        for (const auto& p : pairs) {
+            if (invalid.empty()) invalid = store::check_pair_record(p);
+        }
+        if (!invalid.empty()) invalid = "invalid result: " + invalid;
+    }
     std::optional<scheduler::CompletedJob> done =
-        r.ok() ? scheduler_.complete(r.task_id(), r.worker_id(), dds::from_msg(r.pairs()), now_s())
-               : scheduler_.fail(r.task_id(), r.worker_id(), r.error(), now_s());
+        invalid.empty() ? scheduler_.complete(r.task_id(), r.worker_id(), std::move(pairs), now_s())
+                        : scheduler_.fail(r.task_id(), r.worker_id(), invalid, now_s());
     if (done) finish(std::move(*done));
 }
 
@@ -226,11 +242,20 @@ void SampleDb::finish(scheduler::CompletedJob job) {
     for (const auto& [name, value] : job.spec.params) o.params.set(name, value);
     o.pairs = std::move(job.pairs);
     o.wall_seconds = job.finished_at - job.started_at;
-    store_.put(o);  // durable before anyone hears of it
-    const auto stored = store_.get(o.key);
+    // Timeouts depend on the machine's load and worker failures on the worker: the requesters
+    // get the answer, the store does not keep it, and a later request runs the matcher again.
+    const bool transient = job.worker_failures || std::any_of(o.pairs.begin(), o.pairs.end(), [](const auto& p) {
+                               return p.status == store::PairStatus::kTimeout;
+                           });
+    std::optional<store::Observation> stored;
+    if (!transient) {
+        store_.put(o);  // durable before anyone hears of it
+        stored = store_.get(o.key);
+    }
     for (const auto& requester : job.requesters) reply(requester, stored ? *stored : o, false);
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.evaluated;
+    ++(transient ? stats_.not_stored : stats_.stored);
 }
 
 }  // namespace maptune::services

@@ -31,6 +31,7 @@ struct SampleDbOptions {
 
 struct SampleDbStats {
     std::size_t requests = 0, from_store = 0, evaluated = 0, refused = 0, tasks_sent = 0;
+    std::size_t stored = 0, not_stored = 0;  // completed jobs kept / answered only (transient failures)
 };
 
 class SampleDb {

@@ -278,3 +278,35 @@ TEST(Scheduler, TaskIdsOfAnEarlierIncarnationAreUnknown) {
 
 }  // namespace
 }  // namespace maptune::scheduler
+
+namespace maptune::scheduler {
+namespace {
+
+// A shard that failed max_attempts times completes the job with FAILED pairs and says so:
+// such a job is an answer, not an observation to keep.
+TEST(Scheduler, JobsThatGaveUpOnAShardAreFlaggedAsWorkerFailures) {
+    SchedulerOptions o;
+    o.max_attempts = 2;
+    Scheduler s(o);
+    s.heartbeat(worker("w1"), 0);
+    ASSERT_TRUE(s.submit("k", job(2), "r", 0));
+    std::optional<CompletedJob> done;
+    for (int attempt = 0; attempt < 2 && !done; ++attempt) {
+        const auto tasks = s.schedule(attempt);
+        ASSERT_EQ(tasks.size(), 1u);
+        done = s.fail(tasks[0].task_id, "w1", "cannot fetch submap", attempt);
+    }
+    ASSERT_TRUE(done.has_value());
+    EXPECT_TRUE(done->worker_failures);
+    for (const auto& p : done->pairs) EXPECT_EQ(p.status, store::PairStatus::kFailed);
+
+    ASSERT_TRUE(s.submit("k2", job(2), "r", 10));
+    const auto tasks = s.schedule(10);
+    ASSERT_EQ(tasks.size(), 1u);
+    const auto ok = s.complete(tasks[0].task_id, "w1", results_for(tasks[0]), 10);
+    ASSERT_TRUE(ok.has_value());
+    EXPECT_FALSE(ok->worker_failures);
+}
+
+}  // namespace
+}  // namespace maptune::scheduler

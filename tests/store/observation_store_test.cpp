@@ -11,6 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
 #include <set>
 
 namespace maptune::store {
@@ -297,6 +300,43 @@ TEST_F(StoreTest, SigkillDuringWritesLosesNoCommittedObservation) {
     for (const auto& o : all) EXPECT_EQ(o.pairs.size(), 200u);
     // The store stays writable after the crash.
     EXPECT_TRUE(store.put(make_observation(100000, 3)));
+}
+
+}  // namespace
+}  // namespace maptune::store
+
+namespace maptune::store {
+namespace {
+
+TEST(PairRecordCheck, AcceptsRigidTransformsAndNamesWhatIsBroken) {
+    PairRecord r;
+    r.pair_id = "a|b";
+    r.matched = true;
+    r.T_a_b_est.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    r.T_a_b_est(0, 3) = 4.0;
+    EXPECT_EQ(check_pair_record(r), "");
+    PairRecord nan = r;
+    nan.T_a_b_est(1, 3) = std::nan("");
+    EXPECT_NE(check_pair_record(nan).find("a|b: transform has a NaN"), std::string::npos);
+    PairRecord inf = r;
+    inf.T_a_b_est(0, 0) = std::numeric_limits<double>::infinity();
+    EXPECT_NE(check_pair_record(inf), "");
+    PairRecord scaled = r;
+    scaled.T_a_b_est.topLeftCorner<3, 3>() *= 1.01;
+    EXPECT_NE(check_pair_record(scaled).find("not orthonormal"), std::string::npos);
+    PairRecord mirrored = r;
+    mirrored.T_a_b_est.row(2) *= -1.0;  // a reflection: orthonormal, determinant -1
+    mirrored.T_a_b_est(3, 3) = 1.0;
+    EXPECT_NE(check_pair_record(mirrored), "");
+    PairRecord bottom = r;
+    bottom.T_a_b_est(3, 0) = 0.5;
+    EXPECT_NE(check_pair_record(bottom).find("bottom row"), std::string::npos);
+    PairRecord unmatched = nan;  // an unmatched pair's transform means nothing
+    unmatched.matched = false;
+    EXPECT_EQ(check_pair_record(unmatched), "");
+    PairRecord slow = r;
+    slow.duration_s = -1;
+    EXPECT_NE(check_pair_record(slow).find("duration"), std::string::npos);
 }
 
 }  // namespace

@@ -1,0 +1,202 @@
+// sample_db in-process against a scripted worker on a private DDS domain: a broken result
+// (NaN transform) is a failed attempt that runs again, and answers with timeouts reach the
+// requester but are not kept — a later request runs the matcher again, and only then is
+// the observation stored.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <deque>
+#include <filesystem>
+#include <limits>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "dataset/dataset.hpp"
+#include "dataset_mirror.hpp"
+#include "dds/convert.hpp"
+#include "dds/participant.hpp"
+#include "fastdds_shm.hpp"
+#include "maptunePubSubTypes.h"
+#include "runtime.hpp"
+#include "sample_db.hpp"
+#include "temp_dataset.hpp"
+
+namespace maptune {
+namespace {
+
+namespace fs = std::filesystem;
+namespace v1 = msg::v1;
+const std::string kSource = MAPTUNE_SOURCE_DIR;
+using namespace std::chrono_literals;
+
+template <class Pred>
+bool poll(Pred pred, double timeout_s) {
+    const double end = services::now_s() + timeout_s;
+    while (!pred()) {
+        if (services::now_s() > end) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return true;
+}
+
+TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
+    const fs::path dir = test::make_temp_dir("maptune_sample_db_faults_");
+    const auto shm_before = testing::fastdds_shm_files();
+    const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 3, 4);
+    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+    const dataset::Dataset ds = dataset::Dataset::open(lab);
+    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+
+    // What the worker answers, task by task: NaN, then good; timeouts, then good.
+    enum class Answer { kNan, kGood, kTimeout };
+    const std::vector<Answer> script{Answer::kNan, Answer::kGood, Answer::kTimeout, Answer::kGood};
+    std::vector<v1::EvaluationTask> tasks_seen;
+    std::vector<v1::ObservationReply> replies;
+    std::mutex m;
+    {
+        dds::Participant db_p({domain, "", "maptune_loopback", "sample_db"});
+        services::DatasetMirror mirror(db_p, dir / "cache", "sample_db");
+        mirror.add_local(lab);
+        services::SampleDbOptions options;
+        options.store_path = (dir / "obs.db").string();
+        options.spaces = {space};
+        options.scheduler.shard_size = 0;
+        options.scheduler.lease_s = 30;
+        services::SampleDb db(db_p, mirror, options);
+
+        dds::Participant worker_p({domain, "", "maptune_loopback", "worker"});
+        std::deque<v1::EvaluationTask> queue;
+        worker_p.reader<v1::EvaluationTaskPubSubType>(dds::topics::kEvaluationTask, dds::TopicQos::kReliable,
+                                                      [&](const v1::EvaluationTask& t) {
+                                                          std::lock_guard<std::mutex> lock(m);
+                                                          queue.push_back(t);
+                                                      });
+        auto results = worker_p.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
+        auto status = worker_p.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
+        dds::Participant client_p({domain, "", "maptune_loopback", "client"});
+        client_p.reader<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply, dds::TopicQos::kReliable,
+                                                        [&](const v1::ObservationReply& r) {
+                                                            std::lock_guard<std::mutex> lock(m);
+                                                            replies.push_back(r);
+                                                        });
+        auto requests = client_p.writer<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest,
+                                                                          dds::TopicQos::kReliable);
+        ASSERT_TRUE(requests.wait_for_readers(1, 15s));
+
+        std::atomic<bool> stop{false};
+        std::thread worker([&] {
+            std::size_t answered = 0;
+            std::uint64_t beat = 0;
+            double last_beat = -1;
+            while (!stop) {
+                if (services::now_s() - last_beat > 0.2) {  // heartbeat
+                    v1::WorkerStatus ws;
+                    ws.worker_id("w1");
+                    ws.matcher_id("lru_matcher");
+                    ws.matcher_version("test");
+                    ws.space_hash(space.hash());
+                    ws.slots(1);
+                    ws.sequence_number(++beat);
+                    status.write(ws);
+                    last_beat = services::now_s();
+                }
+                std::optional<v1::EvaluationTask> t;
+                {
+                    std::lock_guard<std::mutex> lock(m);
+                    if (!queue.empty()) {
+                        t = queue.front();
+                        queue.pop_front();
+                        tasks_seen.push_back(*t);
+                    }
+                }
+                if (!t) {
+                    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+                    continue;
+                }
+                const Answer a = answered < script.size() ? script[answered] : Answer::kGood;
+                ++answered;
+                std::vector<store::PairRecord> pairs;
+                for (const auto& id : t->pair_ids()) {
+                    store::PairRecord r;
+                    r.pair_id = id;
+                    r.matched = a != Answer::kTimeout;
+                    r.status = a == Answer::kTimeout ? store::PairStatus::kTimeout : store::PairStatus::kOk;
+                    if (a == Answer::kNan) r.T_a_b_est(0, 3) = std::numeric_limits<double>::quiet_NaN();
+                    pairs.push_back(r);
+                }
+                v1::TaskResult res;
+                res.task_id(t->task_id());
+                res.worker_id("w1");
+                res.ok(true);
+                res.pairs(dds::to_msg(pairs));
+                results.write(res);
+            }
+        });
+
+        auto ask = [&](const std::string& id, double r_n) {
+            v1::ObservationRequest req;
+            req.request_id(id);
+            req.requester("test");
+            req.dataset_id(ds.manifest().id);
+            req.view("complete");
+            req.matcher_id("lru_matcher");
+            req.matcher_version("test");
+            req.space_hash(space.hash());
+            req.params(dds::to_msg(params::ParameterSet{{"r_N", r_n}}));
+            requests.write(req);
+        };
+        auto reply_to = [&](const std::string& id) -> std::optional<v1::ObservationReply> {
+            std::optional<v1::ObservationReply> out;
+            poll([&] {
+                std::lock_guard<std::mutex> lock(m);
+                for (const auto& r : replies) {
+                    if (r.request_id() == id) out = r;
+                }
+                return out.has_value();
+            }, 30);
+            return out;
+        };
+
+        // A NaN result is a failed attempt: the shard runs again, and the stored answer is finite.
+        ask("r1", 0.3);
+        const auto r1 = reply_to("r1");
+        ASSERT_TRUE(r1.has_value());
+        EXPECT_TRUE(r1->ok()) << r1->error();
+        for (const auto& p : dds::from_msg(r1->pairs())) {
+            EXPECT_TRUE(p.matched);
+            EXPECT_TRUE(p.T_a_b_est.allFinite());
+        }
+        EXPECT_EQ(tasks_seen.size(), 2u);
+        // Timeouts: answered, not kept; asked again, the matcher runs again and now it is kept.
+        ask("r2", 0.5);
+        const auto r2 = reply_to("r2");
+        ASSERT_TRUE(r2.has_value());
+        ASSERT_TRUE(r2->ok());
+        EXPECT_FALSE(r2->from_store());
+        for (const auto& p : dds::from_msg(r2->pairs())) EXPECT_EQ(p.status, store::PairStatus::kTimeout);
+        ask("r3", 0.5);
+        const auto r3 = reply_to("r3");
+        ASSERT_TRUE(r3.has_value());
+        EXPECT_FALSE(r3->from_store());
+        EXPECT_EQ(tasks_seen.size(), 4u);
+        for (const auto& p : dds::from_msg(r3->pairs())) EXPECT_TRUE(p.matched);
+        ask("r4", 0.5);
+        const auto r4 = reply_to("r4");
+        ASSERT_TRUE(r4.has_value());
+        EXPECT_TRUE(r4->from_store());
+        EXPECT_EQ(tasks_seen.size(), 4u);
+        const auto stats = db.stats();
+        EXPECT_EQ(stats.stored, 2u);
+        EXPECT_EQ(stats.not_stored, 1u);
+        stop = true;
+        worker.join();
+    }
+    const store::ObservationStore check((dir / "obs.db").string());
+    EXPECT_EQ(check.count(), 2u);
+    testing::remove_orphaned_fastdds_shm(shm_before);
+    fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace maptune
