@@ -103,7 +103,7 @@ store::Observation Evaluator::evaluate_cached(store::ObservationStore* db, datas
     }
     if (from_store != nullptr) *from_store = false;
     store::Observation obs = evaluate(view, params, stats);
-    if (db != nullptr) db->put(obs);
+    if (db != nullptr && !store::has_timeouts(obs.pairs)) db->put(obs);
     return obs;
 }
 

@@ -41,7 +41,8 @@ public:
                                 matcher::EvaluationStats* stats = nullptr);
 
     // Looks the observation up in `db` (when given) and evaluates only when it is absent,
-    // storing the result. `from_store` tells which happened.
+    // storing the result unless a pair timed out (store::has_timeouts). `from_store` tells
+    // which happened.
     store::Observation evaluate_cached(store::ObservationStore* db, dataset::View view,
                                        const params::ParameterSet& params,
                                        bool* from_store = nullptr,

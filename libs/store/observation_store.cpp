@@ -1,6 +1,7 @@
 #include "store/observation_store.hpp"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 
 #include <sqlite3.h>
@@ -186,6 +187,10 @@ std::string check_pair_record(const PairRecord& r) {
         return r.pair_id + ": bottom row is not 0 0 0 1";
     }
     return "";
+}
+
+bool has_timeouts(const std::vector<PairRecord>& pairs) {
+    return std::any_of(pairs.begin(), pairs.end(), [](const PairRecord& p) { return p.status == PairStatus::kTimeout; });
 }
 
 bool ObservationKey::operator==(const ObservationKey& o) const {

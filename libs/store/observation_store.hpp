@@ -38,6 +38,10 @@ struct PairRecord {
 // bottom row 0 0 0 1), and the duration must be finite and not negative.
 std::string check_pair_record(const PairRecord& record);
 
+// Whether any pair ran out of time: such an answer depends on the machine's load, not only on
+// the parameters, so it is returned but not stored (sample_db, Evaluator::evaluate_cached).
+bool has_timeouts(const std::vector<PairRecord>& pairs);
+
 struct ObservationKey {
     std::string dataset_id;       // content hash of the dataset
     std::string view;             // "complete" | "subsequent" | custom

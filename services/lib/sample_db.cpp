@@ -244,9 +244,7 @@ void SampleDb::finish(scheduler::CompletedJob job) {
     o.wall_seconds = job.finished_at - job.started_at;
     // Timeouts depend on the machine's load and worker failures on the worker: the requesters
     // get the answer, the store does not keep it, and a later request runs the matcher again.
-    const bool transient = job.worker_failures || std::any_of(o.pairs.begin(), o.pairs.end(), [](const auto& p) {
-                               return p.status == store::PairStatus::kTimeout;
-                           });
+    const bool transient = job.worker_failures || store::has_timeouts(o.pairs);
     std::optional<store::Observation> stored;
     if (!transient) {
         store_.put(o);  // durable before anyone hears of it

@@ -68,6 +68,23 @@ TEST_F(EvaluationTest, CachedEvaluationStoresOnceAndAnswersFromTheStore) {
     }
 }
 
+// Timeouts depend on the machine's load: such an answer is returned but never stored, so
+// asking again runs the matcher again.
+TEST_F(EvaluationTest, AnswersWithTimeoutsAreNotStored) {
+    const auto ds = dataset::Dataset::open(root_ / "ds");
+    store::ObservationStore db((root_ / "timeouts.db").string());
+    matcher::MatcherSettings settings;
+    settings.pair_time_limit_s = 1e-6;  // nothing finishes in a microsecond
+    Evaluator ev(ds, space(), settings);
+    bool from_store = true;
+    const auto obs = ev.evaluate_cached(&db, dataset::View::complete, space().defaults(), &from_store);
+    EXPECT_FALSE(from_store);
+    ASSERT_TRUE(store::has_timeouts(obs.pairs));
+    EXPECT_EQ(db.count(), 0u);
+    ev.evaluate_cached(&db, dataset::View::complete, space().defaults(), &from_store);
+    EXPECT_FALSE(from_store);
+}
+
 TEST_F(EvaluationTest, MatcherSettingsArePartOfTheKey) {
     matcher::MatcherSettings a, b;
     b.ransac_iterations = a.ransac_iterations + 1;
