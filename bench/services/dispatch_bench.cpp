@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
     auto client_p = participant("client");
     std::mutex m;
     int replies = 0;
-    client_p->reader<msg::v1::ObservationReplyPubSubType>(maptune::dds::topics::kObservationReply, maptune::dds::TopicQos::kReliable,
+    const auto replies_sub = client_p->reader<msg::v1::ObservationReplyPubSubType>(maptune::dds::topics::kObservationReply, maptune::dds::TopicQos::kReliable,
                                                          [&](const msg::v1::ObservationReply&) {
                                                              std::lock_guard<std::mutex> lock(m);
                                                              ++replies;

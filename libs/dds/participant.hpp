@@ -72,23 +72,62 @@ private:
     eprosima::fastdds::dds::DataWriter* writer_;
 };
 
-// Calls `on_sample` on a Fast DDS thread for every valid sample taken.
+// Whether a reader's callback may still run: closed by its Subscription.
+struct ReaderGate {
+    std::mutex mutex;  // held while the callback runs
+    bool open = true;
+};
+
+// Calls `on_sample` on a Fast DDS thread for every valid sample taken, while its gate is open.
 template <class T>
 class ReaderListener : public eprosima::fastdds::dds::DataReaderListener {
 public:
-    explicit ReaderListener(std::function<void(const T&)> on_sample)
-        : on_sample_(std::move(on_sample)) {}
+    ReaderListener(std::function<void(const T&)> on_sample, std::shared_ptr<ReaderGate> gate)
+        : on_sample_(std::move(on_sample)), gate_(std::move(gate)) {}
     void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
         T sample;
         eprosima::fastdds::dds::SampleInfo info;
         while (reader->take_next_sample(&sample, &info) ==
                eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+            std::lock_guard<std::mutex> lock(gate_->mutex);
+            if (!gate_->open) return;
             if (info.valid_data) on_sample_(sample);
         }
     }
 
 private:
     std::function<void(const T&)> on_sample_;
+    std::shared_ptr<ReaderGate> gate_;
+};
+
+// Owns a reader's callback: once it is destroyed (or reset), the callback has returned and
+// never runs again. A service keeps its subscriptions as its last members, so they close
+// before anything the callbacks touch is destroyed — even though the Participant, which
+// owns the readers, outlives the service.
+class Subscription {
+public:
+    Subscription() = default;
+    explicit Subscription(std::shared_ptr<ReaderGate> gate) : gate_(std::move(gate)) {}
+    Subscription(Subscription&&) noexcept = default;
+    Subscription& operator=(Subscription&& other) noexcept {
+        if (this != &other) {
+            reset();
+            gate_ = std::move(other.gate_);
+        }
+        return *this;
+    }
+    Subscription(const Subscription&) = delete;
+    Subscription& operator=(const Subscription&) = delete;
+    ~Subscription() { reset(); }
+    void reset() {
+        if (!gate_) return;
+        std::lock_guard<std::mutex> lock(gate_->mutex);  // waits for a running callback
+        gate_->open = false;
+        gate_.reset();
+    }
+
+private:
+    std::shared_ptr<ReaderGate> gate_;
 };
 
 class Participant {
@@ -112,18 +151,20 @@ public:
         return Writer<typename PubSubType::type>(w);
     }
 
+    // The callback runs on a Fast DDS thread until the returned Subscription is destroyed.
     template <class PubSubType>
-    void reader(const std::string& topic, TopicQos qos,
-                std::function<void(const typename PubSubType::type&)> on_sample) {
+    [[nodiscard]] Subscription reader(const std::string& topic, TopicQos qos,
+                                      std::function<void(const typename PubSubType::type&)> on_sample) {
         auto* t = topic_for(topic, new PubSubType());
         eprosima::fastdds::dds::DataReaderQos rq = subscriber_->get_default_datareader_qos();
         apply_qos(qos, rq);
-        auto listener =
-            std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample));
+        auto gate = std::make_shared<ReaderGate>();
+        auto listener = std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample), gate);
         auto* r = subscriber_->create_datareader(t, rq, listener.get());
         if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'");
         std::lock_guard<std::mutex> lock(mutex_);
         listeners_.push_back(std::move(listener));
+        return Subscription(std::move(gate));
     }
 
 private:

@@ -22,14 +22,14 @@ DatasetMirror::DatasetMirror(dds::Participant& participant, fs::path cache_root,
     : cache_root_(std::move(cache_root)), client_id_(std::move(client_id)) {
     requests_ = participant.writer<v1::FileRequestPubSubType>(dds::topics::kFileRequest,
                                                              dds::TopicQos::kReliable);
-    participant.reader<v1::DatasetAnnouncementPubSubType>(
+    subscriptions_.push_back(participant.reader<v1::DatasetAnnouncementPubSubType>(
         dds::topics::kDatasetAnnouncement, dds::TopicQos::kLatched,
         [this](const v1::DatasetAnnouncement& a) {
             std::lock_guard<std::mutex> lock(mutex_);
             announced_[a.dataset_id()] = a;
             cv_.notify_all();
-        });
-    participant.reader<v1::FileChunkPubSubType>(
+        }));
+    subscriptions_.push_back(participant.reader<v1::FileChunkPubSubType>(
         dds::topics::kFileChunk, dds::TopicQos::kReliable, [this](const v1::FileChunk& c) {
             std::lock_guard<std::mutex> lock(mutex_);
             const auto it = transfers_.find(c.request_id());
@@ -52,7 +52,7 @@ DatasetMirror::DatasetMirror(dds::Participant& participant, fs::path cache_root,
                 t.done = t.received == t.count;
             }
             cv_.notify_all();
-        });
+        }));
 }
 
 void DatasetMirror::add_local(const fs::path& dir) {

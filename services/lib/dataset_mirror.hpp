@@ -64,6 +64,8 @@ private:
     std::map<std::string, Transfer> transfers_;  // by request id
     std::uint64_t next_request_ = 1;
     std::size_t fetched_ = 0;
+    // Last, so destroyed first: no callback runs once the rest starts to go away.
+    std::vector<dds::Subscription> subscriptions_;
 };
 
 }  // namespace maptune::services

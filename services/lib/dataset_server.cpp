@@ -47,12 +47,12 @@ DatasetServer::DatasetServer(dds::Participant& participant, DatasetServerOptions
         dds::topics::kDatasetAnnouncement, dds::TopicQos::kLatched);
     chunks_ = participant.writer<v1::FileChunkPubSubType>(dds::topics::kFileChunk,
                                                          dds::TopicQos::kReliable);
-    participant.reader<v1::FileRequestPubSubType>(
+    subscriptions_.push_back(participant.reader<v1::FileRequestPubSubType>(
         dds::topics::kFileRequest, dds::TopicQos::kReliable, [this](const v1::FileRequest& r) {
             std::lock_guard<std::mutex> lock(mutex_);
             queue_.push_back(r);
             cv_.notify_one();
-        });
+        }));
     for (const auto& [id, s] : datasets_) announcements_.write(s.announcement);
     thread_ = std::thread([this] { serve_loop(); });
 }

@@ -54,6 +54,8 @@ private:
     bool stop_ = false;
     std::size_t served_ = 0, refused_ = 0;
     std::thread thread_;
+    // Last, so destroyed first: no callback runs once the rest starts to go away.
+    std::vector<dds::Subscription> subscriptions_;
 };
 
 // Lists the files of a dataset directory as announced: relative paths, sizes, content hashes.

@@ -14,13 +14,13 @@ MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backe
     results_ = participant.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
     // Heartbeats are reliable too: a lost one must not look like a dead worker.
     status_ = participant.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
-    participant.reader<v1::EvaluationTaskPubSubType>(
+    subscriptions_.push_back(participant.reader<v1::EvaluationTaskPubSubType>(
         dds::topics::kEvaluationTask, dds::TopicQos::kReliable, [this](const v1::EvaluationTask& t) {
             if (t.worker_id() != options_.worker_id) return;
             std::lock_guard<std::mutex> lock(mutex_);
             queue_.push_back(t);
             cv_.notify_one();
-        });
+        }));
     for (int i = 0; i < options_.slots; ++i) threads_.emplace_back([this] { task_loop(); });
     threads_.emplace_back([this] { heartbeat_loop(); });
 }

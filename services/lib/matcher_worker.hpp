@@ -51,6 +51,8 @@ private:
     std::size_t done_ = 0;
     std::uint64_t sequence_ = 0;
     std::vector<std::thread> threads_;
+    // Last, so destroyed first: no callback runs once the rest starts to go away.
+    std::vector<dds::Subscription> subscriptions_;
 };
 
 }  // namespace maptune::services

@@ -40,18 +40,18 @@ OptimizerService::OptimizerService(dds::Participant& participant, DatasetMirror&
     best_ = participant.writer<v1::BestSoFarPubSubType>(dds::topics::kBestSoFar, dds::TopicQos::kLatched);
     status_ = participant.writer<v1::OptimizerStatusPubSubType>(dds::topics::kOptimizerStatus,
                                                                dds::TopicQos::kLatched);
-    participant.reader<v1::ObservationReplyPubSubType>(
+    subscriptions_.push_back(participant.reader<v1::ObservationReplyPubSubType>(
         dds::topics::kObservationReply, dds::TopicQos::kReliable, [this](const v1::ObservationReply& r) {
             // Replies for other optimizers (and earlier lives of this one) share the topic.
             if (r.request_id().rfind(request_prefix_, 0) != 0) return;
             std::lock_guard<std::mutex> lock(mutex_);
             replies_.push_back(r);
-        });
-    participant.reader<v1::WorkerStatusPubSubType>(
+        }));
+    subscriptions_.push_back(participant.reader<v1::WorkerStatusPubSubType>(
         dds::topics::kWorkerStatus, dds::TopicQos::kLatched, [this](const v1::WorkerStatus& s) {
             std::lock_guard<std::mutex> lock(mutex_);
             workers_[s.worker_id()] = s;
-        });
+        }));
 }
 
 bool OptimizerService::same_set(const v1::ObservationReply& reply, const v1::ObservationRequest& request) const {

@@ -83,6 +83,8 @@ private:
     // For run.yaml.
     std::string dataset_id_, dataset_name_, matcher_version_, started_utc_;
     double started_s_ = 0;
+    // Last, so destroyed first: no callback runs once the rest starts to go away.
+    std::vector<dds::Subscription> subscriptions_;
 };
 
 using experiment::read_trials_csv;

@@ -30,15 +30,15 @@ SampleDb::SampleDb(dds::Participant& participant, DatasetMirror& mirror, SampleD
         events_.push_back(std::move(e));
         cv_.notify_one();
     };
-    participant.reader<v1::ObservationRequestPubSubType>(
+    subscriptions_.push_back(participant.reader<v1::ObservationRequestPubSubType>(
         dds::topics::kObservationRequest, dds::TopicQos::kReliable,
-        [push](const v1::ObservationRequest& r) { push({Event::kRequest, r, {}, {}}); });
-    participant.reader<v1::TaskResultPubSubType>(
+        [push](const v1::ObservationRequest& r) { push({Event::kRequest, r, {}, {}}); }));
+    subscriptions_.push_back(participant.reader<v1::TaskResultPubSubType>(
         dds::topics::kTaskResult, dds::TopicQos::kReliable,
-        [push](const v1::TaskResult& r) { push({Event::kResult, {}, r, {}}); });
-    participant.reader<v1::WorkerStatusPubSubType>(
+        [push](const v1::TaskResult& r) { push({Event::kResult, {}, r, {}}); }));
+    subscriptions_.push_back(participant.reader<v1::WorkerStatusPubSubType>(
         dds::topics::kWorkerStatus, dds::TopicQos::kLatched,
-        [push](const v1::WorkerStatus& s) { push({Event::kStatus, {}, {}, s}); });
+        [push](const v1::WorkerStatus& s) { push({Event::kStatus, {}, {}, s}); }));
     thread_ = std::thread([this] { loop(); });
 }
 

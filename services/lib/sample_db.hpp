@@ -76,6 +76,8 @@ private:
     bool stop_ = false;
     SampleDbStats stats_;
     std::thread thread_;
+    // Last, so destroyed first: no callback runs once the rest starts to go away.
+    std::vector<dds::Subscription> subscriptions_;
 };
 
 }  // namespace maptune::services

@@ -44,7 +44,8 @@ void add_watch_command(CLI::App& app, int& exit_code) {
             dds::Participant participant(opt->dds);
             std::mutex m;
             int updates = 0;
-            participant.reader<v1::BestSoFarPubSubType>(
+            // Declared after what the callbacks touch: closed before it goes.
+            const auto best_sub = participant.reader<v1::BestSoFarPubSubType>(
                 dds::topics::kBestSoFar, dds::TopicQos::kLatched, [&](const v1::BestSoFar& b) {
                     if (!opt->experiment.empty() && b.experiment_id() != opt->experiment) return;
                     std::lock_guard<std::mutex> lock(m);
@@ -59,7 +60,7 @@ void add_watch_command(CLI::App& app, int& exit_code) {
                     std::cout << std::endl;
                     ++updates;
                 });
-            participant.reader<v1::OptimizerStatusPubSubType>(
+            const auto status_sub = participant.reader<v1::OptimizerStatusPubSubType>(
                 dds::topics::kOptimizerStatus, dds::TopicQos::kLatched, [&](const v1::OptimizerStatus& s) {
                     if (!opt->experiment.empty() && s.experiment_id() != opt->experiment) return;
                     if (s.state() == "running") return;

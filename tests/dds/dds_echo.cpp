@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
         maptune::dds::Participant participant({std::atoi(argv[1]), "", "maptune_loopback", "dds_echo"});
         auto replies = participant.writer<v1::ObservationReplyPubSubType>(
             "maptune/observation_reply", maptune::dds::TopicQos::kReliable);
-        participant.reader<v1::ObservationRequestPubSubType>(
+        const auto requests_sub = participant.reader<v1::ObservationRequestPubSubType>(
             "maptune/observation_request", maptune::dds::TopicQos::kReliable,
             [&replies](const v1::ObservationRequest& req) {
                 v1::ObservationReply rep;

@@ -92,7 +92,7 @@ TEST(Participant, ReliableRequestsArriveInOrderBetweenParticipants) {
     Participant b({domain, "", "maptune_loopback", "b"});
     std::mutex m;
     std::vector<std::string> got;
-    b.reader<v1::ObservationRequestPubSubType>("t/requests", TopicQos::kReliable,
+    const auto requests_sub = b.reader<v1::ObservationRequestPubSubType>("t/requests", TopicQos::kReliable,
                                               [&](const v1::ObservationRequest& r) {
                                                   std::lock_guard<std::mutex> lock(m);
                                                   got.push_back(r.request_id());
@@ -111,6 +111,37 @@ TEST(Participant, ReliableRequestsArriveInOrderBetweenParticipants) {
     for (int i = 0; i < 200; ++i) EXPECT_EQ(got[static_cast<std::size_t>(i)], "req-" + std::to_string(i));
 }
 
+// A service's callbacks must never run once it is being destroyed, though its participant
+// lives on: destroying the Subscription waits for a running callback and stops later ones.
+TEST(Participant, DestroyedSubscriptionWaitsForItsCallbackAndStopsFurtherOnes) {
+    const int domain = random_domain();
+    Participant a({domain, "", "maptune_loopback", "a"});
+    Participant b({domain, "", "maptune_loopback", "b"});
+    std::atomic<int> started{0}, finished{0};
+    auto sub = std::make_unique<Subscription>(b.reader<v1::ObservationRequestPubSubType>(
+        "t/gate", TopicQos::kReliable, [&](const v1::ObservationRequest&) {
+            ++started;
+            std::this_thread::sleep_for(std::chrono::milliseconds(300));
+            ++finished;
+        }));
+    auto w = a.writer<v1::ObservationRequestPubSubType>("t/gate", TopicQos::kReliable);
+    ASSERT_TRUE(w.wait_for_readers(1, 10s));
+    v1::ObservationRequest r;
+    r.request_id("one");
+    ASSERT_TRUE(w.write(r));
+    ASSERT_TRUE(wait_until([&] { return started.load() == 1; }, 10s));
+    sub.reset();  // while the callback sleeps
+    EXPECT_EQ(finished.load(), 1) << "the subscription went away under a running callback";
+    // A second reader proves the next samples were delivered; the closed one saw none.
+    std::atomic<int> witnessed{0};
+    const auto witness = b.reader<v1::ObservationRequestPubSubType>("t/gate", TopicQos::kReliable,
+                                                                    [&](const v1::ObservationRequest&) { ++witnessed; });
+    ASSERT_TRUE(w.wait_for_readers(2, 10s));
+    for (int i = 0; i < 5; ++i) ASSERT_TRUE(w.write(r));
+    ASSERT_TRUE(wait_until([&] { return witnessed.load() == 5; }, 10s));
+    EXPECT_EQ(started.load(), 1);
+}
+
 TEST(Participant, LatchedTopicGivesALateSubscriberOnlyTheLatestSample) {
     const int domain = random_domain();
     Participant pub({domain, "", "maptune_loopback", "pub"});
@@ -125,7 +156,7 @@ TEST(Participant, LatchedTopicGivesALateSubscriberOnlyTheLatestSample) {
     Participant late({domain, "", "maptune_loopback", "late"});
     std::mutex m;
     std::vector<double> seen;
-    late.reader<v1::BestSoFarPubSubType>("t/best", TopicQos::kLatched, [&](const v1::BestSoFar& b) {
+    const auto best_sub = late.reader<v1::BestSoFarPubSubType>("t/best", TopicQos::kLatched, [&](const v1::BestSoFar& b) {
         std::lock_guard<std::mutex> lock(m);
         seen.push_back(b.best_p());
     });
@@ -156,7 +187,7 @@ TEST(Participant, TalksToAnotherProcessAndThatProcessStopsCleanlyOnSigterm) {
         Participant me({domain, "", "maptune_loopback", "test"});
         std::mutex m;
         std::vector<v1::ObservationReply> replies;
-        me.reader<v1::ObservationReplyPubSubType>("maptune/observation_reply", TopicQos::kReliable,
+        const auto replies_sub = me.reader<v1::ObservationReplyPubSubType>("maptune/observation_reply", TopicQos::kReliable,
                                                  [&](const v1::ObservationReply& r) {
                                                      std::lock_guard<std::mutex> lock(m);
                                                      replies.push_back(r);

@@ -62,7 +62,7 @@ TEST(OptimizerReplies, StaleAndForeignRepliesAreNeverToldToTheModel) {
         std::mutex m;
         std::deque<v1::ObservationRequest> queue;
         std::set<std::string> seen;
-        fake.reader<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest, dds::TopicQos::kReliable,
+        const auto requests_sub = fake.reader<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest, dds::TopicQos::kReliable,
                                                       [&](const v1::ObservationRequest& r) {
                                                           std::lock_guard<std::mutex> lock(m);
                                                           if (seen.insert(r.request_id()).second) queue.push_back(r);

@@ -67,7 +67,7 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
 
         dds::Participant worker_p({domain, "", "maptune_loopback", "worker"});
         std::deque<v1::EvaluationTask> queue;
-        worker_p.reader<v1::EvaluationTaskPubSubType>(dds::topics::kEvaluationTask, dds::TopicQos::kReliable,
+        const auto tasks_sub = worker_p.reader<v1::EvaluationTaskPubSubType>(dds::topics::kEvaluationTask, dds::TopicQos::kReliable,
                                                       [&](const v1::EvaluationTask& t) {
                                                           std::lock_guard<std::mutex> lock(m);
                                                           queue.push_back(t);
@@ -75,7 +75,7 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         auto results = worker_p.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
         auto status = worker_p.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
         dds::Participant client_p({domain, "", "maptune_loopback", "client"});
-        client_p.reader<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply, dds::TopicQos::kReliable,
+        const auto replies_sub = client_p.reader<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply, dds::TopicQos::kReliable,
                                                         [&](const v1::ObservationReply& r) {
                                                             std::lock_guard<std::mutex> lock(m);
                                                             replies.push_back(r);

@@ -224,7 +224,7 @@ TEST_F(ServicesTest, BadRequestsAreRefusedAndTheServiceKeepsServing) {
     dds::Participant me({domain_, "", "maptune_loopback", "bad_client"});
     std::mutex m;
     std::map<std::string, v1::ObservationReply> replies;
-    me.reader<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply, dds::TopicQos::kReliable,
+    const auto replies_sub = me.reader<v1::ObservationReplyPubSubType>(dds::topics::kObservationReply, dds::TopicQos::kReliable,
                                              [&](const v1::ObservationReply& r) {
                                                  std::lock_guard<std::mutex> lock(m);
                                                  replies[r.request_id()] = r;
