@@ -8,11 +8,23 @@ Scheduler::Scheduler(SchedulerOptions options) : options_(options) {
     if (options_.max_attempts < 1) options_.max_attempts = 1;
 }
 
-void Scheduler::heartbeat(const WorkerInfo& worker, double now) {
+void Scheduler::heartbeat(const WorkerInfo& worker, double now, const std::vector<std::string>* held) {
     Worker& w = workers_[worker.id];
     w.info = worker;
     w.info.slots = std::max(1, worker.slots);
     w.last_seen = now;
+    if (held == nullptr) return;
+    const std::set<std::string> listed(held->begin(), held->end());
+    std::vector<std::string> lost;
+    for (const auto& task : w.tasks) {
+        const Shard& shard = shards_.at(task);
+        if (!listed.count(task) && now - shard.assigned_at > options_.delivery_grace_s) lost.push_back(task);
+    }
+    for (const auto& task : lost) {
+        Shard& shard = shards_.at(task);
+        --shard.attempts;  // never delivered: not an attempt
+        requeue(shard);
+    }
 }
 
 void Scheduler::remove_worker(const std::string& worker_id) {
@@ -103,6 +115,7 @@ std::vector<Assignment> Scheduler::schedule(double now) {
         }
         shard.worker = best->info.id;
         ++shard.attempts;
+        shard.assigned_at = now;
         best->tasks.insert(task);
         Assignment a;
         a.task_id = task;

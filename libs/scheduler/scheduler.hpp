@@ -28,6 +28,9 @@ struct SchedulerOptions {
     // Prefix of every task id: a per-process incarnation, so results for tasks of an earlier
     // life of sample_db (same counter, other parameters) are unknown tasks, never current ones.
     std::string task_prefix;
+    // A task that a worker's heartbeats still do not list this long after it was assigned never
+    // arrived: it goes back to the queue (not counted as a failed attempt).
+    double delivery_grace_s = 3.0;
 };
 
 struct WorkerInfo {
@@ -73,8 +76,10 @@ class Scheduler {
 public:
     explicit Scheduler(SchedulerOptions options = {});
 
-    // A worker's announcement or heartbeat; (re)registers it.
-    void heartbeat(const WorkerInfo& worker, double now);
+    // A worker's announcement or heartbeat; (re)registers it. `held` (when the worker lists
+    // them): the task ids it holds; tasks assigned to it more than delivery_grace_s ago and
+    // not among them were lost on the way and are queued again.
+    void heartbeat(const WorkerInfo& worker, double now, const std::vector<std::string>* held = nullptr);
     // Removes a worker at once (it said goodbye); its shards go back to the queue.
     void remove_worker(const std::string& worker_id);
 
@@ -111,6 +116,7 @@ private:
         std::size_t begin = 0, end = 0;  // range in the job's pair list
         std::string worker;              // empty while queued
         int attempts = 0;
+        double assigned_at = 0;
         bool done = false;
         std::string last_error;
     };

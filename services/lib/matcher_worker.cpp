@@ -18,6 +18,7 @@ MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backe
         dds::topics::kEvaluationTask, dds::TopicQos::kReliable, [this](const v1::EvaluationTask& t) {
             if (t.worker_id() != options_.worker_id) return;
             std::lock_guard<std::mutex> lock(mutex_);
+            if (!held_.insert(t.task_id()).second) return;  // a re-sent task it already holds
             queue_.push_back(t);
             cv_.notify_one();
         }));
@@ -51,6 +52,8 @@ void MatcherWorker::publish_status() {
         std::lock_guard<std::mutex> lock(mutex_);
         s.busy(static_cast<uint32_t>(busy_));
         s.sequence_number(++sequence_);
+        s.lists_tasks(true);
+        s.tasks(std::vector<std::string>(held_.begin(), held_.end()));
     }
     status_.write(s);
 }
@@ -97,6 +100,7 @@ void MatcherWorker::task_loop() {
         }
         results_.write(r);
         std::lock_guard<std::mutex> lock(mutex_);
+        held_.erase(t.task_id());
         --busy_;
         ++done_;
     }

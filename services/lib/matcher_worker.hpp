@@ -8,6 +8,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <set>
 #include <vector>
 
 #include "dds/participant.hpp"
@@ -46,6 +47,7 @@ private:
     std::condition_variable stop_cv_;    // heartbeat thread: stop (own variable, so notify_one
                                          // on cv_ can never wake it instead of a task thread)
     std::deque<msg::v1::EvaluationTask> queue_;
+    std::set<std::string> held_;         // task ids received and not answered yet (heartbeats list them)
     int busy_ = 0;
     bool stop_ = false;
     std::size_t done_ = 0;

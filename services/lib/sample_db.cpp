@@ -72,12 +72,14 @@ void SampleDb::loop() {
                 switch (e.kind) {
                     case Event::kRequest: handle_request(e.request); break;
                     case Event::kResult: handle_result(e.result); break;
-                    case Event::kStatus:
-                        scheduler_.heartbeat({e.status.worker_id(), e.status.matcher_id(),
-                                              e.status.matcher_version(), e.status.space_hash(),
-                                              static_cast<int>(e.status.slots())},
-                                             now);
+                    case Event::kStatus: {
+                        const auto& st = e.status;
+                        const std::vector<std::string> held(st.tasks().begin(), st.tasks().end());
+                        scheduler_.heartbeat({st.worker_id(), st.matcher_id(), st.matcher_version(), st.space_hash(),
+                                              static_cast<int>(st.slots())},
+                                             now, st.lists_tasks() ? &held : nullptr);
                         break;
+                    }
                 }
             } catch (const std::exception& ex) {
                 // Bad input or a store I/O error never stops the service.

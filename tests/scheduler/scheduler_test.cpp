@@ -310,3 +310,38 @@ TEST(Scheduler, JobsThatGaveUpOnAShardAreFlaggedAsWorkerFailures) {
 
 }  // namespace
 }  // namespace maptune::scheduler
+
+namespace maptune::scheduler {
+namespace {
+
+// A task sent to a live worker but never received (a DDS sample dropped before the reader
+// matched) would wait forever behind the worker's heartbeats: once the worker's list of held
+// tasks still lacks it after the grace period, it is queued again — not as a failed attempt.
+TEST(Scheduler, TaskMissingFromAWorkersListAfterTheGraceIsQueuedAgain) {
+    SchedulerOptions o;
+    o.delivery_grace_s = 3;
+    o.max_attempts = 1;
+    Scheduler s(o);
+    s.heartbeat(worker("w1"), 0);
+    ASSERT_TRUE(s.submit("k", job(2), "r", 0));
+    const auto first = s.schedule(0);
+    ASSERT_EQ(first.size(), 1u);
+    const std::vector<std::string> none, has{first[0].task_id};
+    s.heartbeat(worker("w1"), 1, &none);  // within the grace: may still be on its way
+    EXPECT_TRUE(s.schedule(1).empty());
+    s.heartbeat(worker("w1"), 5, &has);  // listed: it is running
+    EXPECT_TRUE(s.schedule(5).empty());
+    s.heartbeat(worker("w1"), 6);  // a worker that does not list its tasks: nothing assumed
+    EXPECT_TRUE(s.schedule(6).empty());
+    s.heartbeat(worker("w1"), 7, &none);  // past the grace and not listed: lost
+    const auto again = s.schedule(7);
+    ASSERT_EQ(again.size(), 1u);
+    EXPECT_EQ(again[0].task_id, first[0].task_id);
+    EXPECT_EQ(again[0].attempt, 1) << "a lost delivery is not a failed attempt";
+    const auto done = s.complete(again[0].task_id, "w1", results_for(again[0]), 8);
+    ASSERT_TRUE(done.has_value());
+    EXPECT_FALSE(done->worker_failures);
+}
+
+}  // namespace
+}  // namespace maptune::scheduler
