@@ -1,6 +1,9 @@
 #include "dataset/io.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -19,12 +22,19 @@ std::string read_file(const fs::path& file) {
 }
 
 void write_file(const fs::path& file, const std::string& bytes) {
-    const fs::path tmp = file.string() + ".part";
+    // A temporary name of this process and call: two processes writing one file (workers
+    // sharing a cache directory) each rename a complete file, never one with the other's bytes.
+    static std::atomic<std::uint64_t> counter{0};
+    const fs::path tmp = file.string() + ".part-" + std::to_string(getpid()) + "-" + std::to_string(++counter);
     {
         std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
         if (!out) throw DatasetError(file, "cannot create file");
         out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-        if (!out) throw DatasetError(file, "write failed (disk full?)");
+        if (!out) {
+            std::error_code ec;
+            fs::remove(tmp, ec);
+            throw DatasetError(file, "write failed (disk full?)");
+        }
     }
     fs::rename(tmp, file);
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <random>
+#include <thread>
 
 #include "dataset/geometry.hpp"
 #include "dataset/io.hpp"
@@ -259,3 +260,25 @@ TEST(GeometryTest, CurvatureObstaclesOnEdgesOnly) {
     ASSERT_FALSE(obs.empty());
     for (const auto& o : obs) EXPECT_LT(std::abs(o.x()) + std::abs(o.z()), 0.2f);
 }
+
+namespace maptune::dataset {
+
+// Two writers of one file (workers sharing a cache directory): the file is always one
+// writer's complete content, and no temporary file is left behind.
+TEST_F(IoTest, ConcurrentWritersOfOneFileNeverMixTheirBytes) {
+    const fs::path file = dir_ / "cloud.bin";
+    const std::string a(1 << 20, 'a'), b(1 << 20, 'b');
+    for (int round = 0; round < 20; ++round) {
+        std::thread ta([&] { write_file(file, a); });
+        std::thread tb([&] { write_file(file, b); });
+        ta.join();
+        tb.join();
+        const std::string got = read_file(file);
+        ASSERT_TRUE(got == a || got == b) << "round " << round << ": mixed content";
+    }
+    int left = 0;
+    for (const auto& e : fs::directory_iterator(dir_)) left += e.path().filename() != "cloud.bin";
+    EXPECT_EQ(left, 0);
+}
+
+}  // namespace maptune::dataset
