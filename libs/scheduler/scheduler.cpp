@@ -44,7 +44,9 @@ void Scheduler::requeue(Shard& shard) {
 bool Scheduler::submit(const std::string& job_key, JobSpec spec, const std::string& requester,
                        double now) {
     if (auto it = jobs_.find(job_key); it != jobs_.end()) {
-        it->second.requesters.push_back(requester);
+        // A re-sent request joins once: one answer per request id.
+        auto& r = it->second.requesters;
+        if (std::find(r.begin(), r.end(), requester) == r.end()) r.push_back(requester);
         return false;
     }
     Job job;

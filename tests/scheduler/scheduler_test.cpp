@@ -106,6 +106,7 @@ TEST(Scheduler, DuplicateConcurrentRequestsRunOnce) {
     const auto a = s.schedule(0.1);
     ASSERT_EQ(a.size(), 1u);
     EXPECT_FALSE(s.submit("k", job(3), "opt-c", 0.2));
+    EXPECT_FALSE(s.submit("k", job(3), "opt-b", 0.3));  // a re-sent request: still one answer
     EXPECT_TRUE(s.schedule(0.2).empty());
     const auto done = s.complete(a[0].task_id, "w1", results_for(a[0]), 1);
     ASSERT_TRUE(done.has_value());
