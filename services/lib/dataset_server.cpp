@@ -34,6 +34,13 @@ DatasetServer::DatasetServer(dds::Participant& participant, DatasetServerOptions
     if (options_.chunk_bytes == 0) options_.chunk_bytes = 512 * 1024;
     for (const auto& dir : options_.datasets) {
         const auto ds = dataset::Dataset::open(dir);  // throws DatasetError naming the file
+        // Results are stored under the dataset id: never serve other content under it.
+        if (std::string recomputed; !ds.verify(&recomputed)) {
+            throw dataset::DatasetError(fs::path(dir) / "manifest.yaml",
+                                        "the files changed since the manifest was written (content id " + recomputed +
+                                            ", manifest id " + ds.manifest().id +
+                                            "): restore them, or generate/import the dataset again");
+        }
         Served s;
         s.dir = dir;
         s.announcement.dataset_id(ds.manifest().id);

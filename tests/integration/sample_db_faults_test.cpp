@@ -7,6 +7,7 @@
 #include <atomic>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <mutex>
 #include <random>
@@ -19,6 +20,7 @@
 #include "fastdds_shm.hpp"
 #include "maptunePubSubTypes.h"
 #include "runtime.hpp"
+#include "dataset_server.hpp"
 #include "sample_db.hpp"
 #include "temp_dataset.hpp"
 
@@ -195,6 +197,31 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
     const store::ObservationStore check((dir / "obs.db").string());
     EXPECT_EQ(check.count(), 2u);
     testing::remove_orphaned_fastdds_shm(shm_before);
+    fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace maptune
+
+namespace maptune {
+namespace {
+
+// Observations are stored under the dataset's content id: a dataset_server must not serve a
+// dataset whose files no longer match it.
+TEST(DatasetServerFaults, RefusesADatasetWhoseFilesChanged) {
+    const fs::path dir = test::make_temp_dir("maptune_dataset_server_faults_");
+    const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 2, 4);
+    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    dds::Participant p({domain, "", "maptune_loopback", "dataset_server"});
+    { services::DatasetServer intact(p, {{lab.string()}, 0, ""}); }
+    const dataset::Dataset ds = dataset::Dataset::open(lab);
+    std::ofstream(lab / ds.manifest().runs[0].submaps[1].cloud, std::ios::app) << "x";
+    try {
+        services::DatasetServer changed(p, {{lab.string()}, 0, ""});
+        ADD_FAILURE() << "served a changed dataset";
+    } catch (const dataset::DatasetError& e) {
+        EXPECT_NE(std::string(e.what()).find("files changed since the manifest"), std::string::npos) << e.what();
+    }
     fs::remove_all(dir);
 }
 
