@@ -19,7 +19,9 @@ bool is_bulk_file(const std::string& path) {
 }  // namespace
 
 DatasetMirror::DatasetMirror(dds::Participant& participant, fs::path cache_root, std::string client_id)
-    : cache_root_(std::move(cache_root)), client_id_(std::move(client_id)) {
+    // Request ids of this life only: chunks for a transfer of an earlier mirror with the same
+    // client id (a restart, or the next seed of `maptune run`) are never taken for ours.
+    : cache_root_(std::move(cache_root)), client_id_(std::move(client_id) + "/" + incarnation_id()) {
     requests_ = participant.writer<v1::FileRequestPubSubType>(dds::topics::kFileRequest,
                                                              dds::TopicQos::kReliable);
     subscriptions_.push_back(participant.reader<v1::DatasetAnnouncementPubSubType>(
