@@ -34,8 +34,9 @@ struct PairRecord {
 };
 
 // Empty when a record from a worker can be stored; otherwise what is wrong with it: a
-// matched pair needs a finite rigid transform (orthonormal rotation with determinant 1,
-// bottom row 0 0 0 1), and the duration must be finite and not negative.
+// matched pair needs a finite rigid transform (rotation orthonormal with determinant 1 to
+// 1e-3 — float matchers are no more exact —, bottom row 0 0 0 1), and the duration must be
+// finite and not negative.
 std::string check_pair_record(const PairRecord& record);
 
 // Whether any pair ran out of time: such an answer depends on the machine's load, not only on

@@ -212,6 +212,21 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
         EXPECT_NE(v.find("\nbest,held,"), std::string::npos) << v;
     }
     EXPECT_TRUE(fs::exists(dir_ / "held" / "manifest.yaml"));
+    // The matcher behind DDS (worker, sample_db) gives what it gives in-process: the
+    // baseline's p in the run equals `maptune evaluate`'s.
+    {
+        std::istringstream trials(slurp(root / "seed-1" / "trials.csv"));
+        std::string line;
+        std::getline(trials, line);
+        std::getline(trials, line);  // evaluation 1: the start point
+        const double run_p = std::stod(line.substr(line.find(',') + 1));
+        const CliRun ev = maptune("evaluate --dataset " + (dir_ / "train").string() +
+                                  " --view complete --params configs/params/x_baseline.yaml --m-star 3 --threads 2");
+        ASSERT_EQ(ev.exit_code, 0) << ev.err;
+        const auto at = ev.out.find("\np ");
+        ASSERT_NE(at, std::string::npos) << ev.out;
+        EXPECT_NEAR(std::stod(ev.out.substr(at + 3)), run_p, 1e-4) << ev.out;
+    }
     EXPECT_TRUE(fs::exists(root / "observations.db"));
     EXPECT_FALSE(fs::exists(root / "seed-1" / "observations.db"));  // one store for all seeds
     const std::string summary = slurp(root / "summary.csv");

@@ -315,6 +315,12 @@ TEST(PairRecordCheck, AcceptsRigidTransformsAndNamesWhatIsBroken) {
     r.T_a_b_est.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
     r.T_a_b_est(0, 3) = 4.0;
     EXPECT_EQ(check_pair_record(r), "");
+    // What a float matcher returns: the same transform composed in float a few times.
+    PairRecord single = r;
+    Eigen::Matrix4f f = r.T_a_b_est.cast<float>();
+    for (int i = 0; i < 50; ++i) f = f * Eigen::Matrix4f(r.T_a_b_est.inverse().cast<float>()) * r.T_a_b_est.cast<float>();
+    single.T_a_b_est = f.cast<double>();
+    EXPECT_EQ(check_pair_record(single), "");
     PairRecord nan = r;
     nan.T_a_b_est(1, 3) = std::nan("");
     EXPECT_NE(check_pair_record(nan).find("a|b: transform has a NaN"), std::string::npos);
