@@ -109,6 +109,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         SampleDbOptions db_options;
         db_options.store_path = db;
         db_options.spaces = {e.space};
+        db_options.log = [](const std::string& line) { std::cerr << "sample_db: " << line << std::endl; };
         SampleDb sample_db(*db_p, db_mirror, db_options);
 
         const matcher::MatcherSettings settings = evaluation::experiment_matcher_settings(

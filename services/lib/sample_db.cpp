@@ -231,6 +231,9 @@ void SampleDb::handle_result(const v1::TaskResult& r) {
         }
         if (!invalid.empty()) invalid = "invalid result: " + invalid;
     }
+    if (!invalid.empty() && options_.log) {
+        options_.log("task " + r.task_id() + " of worker " + r.worker_id() + " failed: " + invalid);
+    }
     std::optional<scheduler::CompletedJob> done =
         invalid.empty() ? scheduler_.complete(r.task_id(), r.worker_id(), std::move(pairs), now_s())
                         : scheduler_.fail(r.task_id(), r.worker_id(), invalid, now_s());
@@ -247,6 +250,10 @@ void SampleDb::finish(scheduler::CompletedJob job) {
     // Timeouts depend on the machine's load and worker failures on the worker: the requesters
     // get the answer, the store does not keep it, and a later request runs the matcher again.
     const bool transient = job.worker_failures || store::has_timeouts(o.pairs);
+    if (transient && options_.log) {
+        options_.log("answer for " + o.key.params_key + " not stored: " +
+                     (job.worker_failures ? "a shard failed on every attempt" : "pairs timed out"));
+    }
     std::optional<store::Observation> stored;
     if (!transient) {
         store_.put(o);  // durable before anyone hears of it

@@ -6,6 +6,7 @@
 
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -27,6 +28,9 @@ struct SampleDbOptions {
     std::vector<params::ParameterSpace> spaces;  // design spaces it accepts (by hash)
     scheduler::SchedulerOptions scheduler;
     double dataset_timeout_s = 30;             // wait for an unknown dataset's announcement
+    // One line per fault it handles (a failed or invalid task result, an answer not stored);
+    // empty: silent. Called on sample_db's thread.
+    std::function<void(const std::string&)> log;
 };
 
 struct SampleDbStats {

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
     CLI::App app{"maptune sample_db: answers observation requests from the store or the workers"};
     maptune::dds::ParticipantOptions dds{0, "", "maptune_loopback", "sample_db"};
     SampleDbOptions options;
+    options.log = [](const std::string& line) { std::cerr << "sample_db: " << line << std::endl; };
     std::vector<std::string> spaces = {"configs/spaces/lru_matcher.yaml"};
     std::string cache = "/tmp/maptune-cache";
     app.add_option("--db", options.store_path, "observation store (SQLite), created when absent")->required();

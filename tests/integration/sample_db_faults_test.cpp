@@ -65,6 +65,8 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         options.spaces = {space};
         options.scheduler.shard_size = 0;
         options.scheduler.lease_s = 30;
+        std::vector<std::string> log;  // written on sample_db's thread, read after it stopped
+        options.log = [&](const std::string& line) { log.push_back(line); };
         services::SampleDb db(db_p, mirror, options);
 
         dds::Participant worker_p({domain, "", "maptune_loopback", "worker"});
@@ -191,6 +193,14 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         const auto stats = db.stats();
         EXPECT_EQ(stats.stored, 2u);
         EXPECT_EQ(stats.not_stored, 1u);
+        // Both faults were said (every reply is out, so the loop has written its lines).
+        int invalid = 0, not_stored = 0;
+        for (const auto& line : log) {
+            invalid += line.find("failed: invalid result: ") != std::string::npos;
+            not_stored += line.find("not stored: pairs timed out") != std::string::npos;
+        }
+        EXPECT_EQ(invalid, 1);
+        EXPECT_EQ(not_stored, 1);
         stop = true;
         worker.join();
     }
