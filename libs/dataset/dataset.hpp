@@ -144,7 +144,10 @@ public:
     Submap load_submap(int run, int index) const;
     Submap load_submap(const std::string& id) const;
     // Recomputes the content hash from the files; true when it matches the manifest's id.
-    bool verify(std::string* recomputed = nullptr) const;
+    // `file_hashes` (relative path -> FNV-1a 64 of the content), when the caller already
+    // hashed the files, spares reading them again.
+    bool verify(std::string* recomputed = nullptr,
+                const std::map<std::string, std::uint64_t>* file_hashes = nullptr) const;
 
 private:
     std::filesystem::path dir_;

@@ -134,10 +134,9 @@ Spread spread(std::vector<double> values) {
     return s;
 }
 
-std::string seeds_summary_csv(const std::vector<SeedOutcome>& seeds) {
-    // Columns: best_p, then "<set>@<target>" for every validation cell, in first-seen order.
-    std::vector<std::string> columns{"best_p"};
-    std::vector<std::map<std::string, double>> rows;
+SeedsSummary summarize_seeds(const std::vector<SeedOutcome>& seeds) {
+    SeedsSummary out;
+    out.columns = {"best_p"};
     for (const auto& s : seeds) {
         std::map<std::string, double> row;
         if (s.best_p) row["best_p"] = *s.best_p;
@@ -145,42 +144,48 @@ std::string seeds_summary_csv(const std::vector<SeedOutcome>& seeds) {
             for (std::size_t i = 0; i < s.validation->set_names.size(); ++i) {
                 for (const auto& col : s.validation->columns) {
                     const std::string key = s.validation->set_names[i] + "@" + col.target.label;
-                    if (std::find(columns.begin(), columns.end(), key) == columns.end()) columns.push_back(key);
+                    if (std::find(out.columns.begin(), out.columns.end(), key) == out.columns.end()) {
+                        out.columns.push_back(key);
+                    }
                     row[key] = col.cells[i].report.score.p;
                 }
             }
         }
-        rows.push_back(std::move(row));
+        out.rows.push_back(std::move(row));
     }
+    for (const auto& c : out.columns) {
+        std::vector<double> v;
+        for (const auto& row : out.rows) {
+            if (auto it = row.find(c); it != row.end()) v.push_back(it->second);
+        }
+        out.spreads.push_back(spread(v));
+    }
+    return out;
+}
+
+std::string seeds_summary_csv(const std::vector<SeedOutcome>& seeds) {
+    const SeedsSummary summary = summarize_seeds(seeds);
     std::ostringstream out;
     out << "seed";
-    for (const auto& c : columns) out << "," << c;
+    for (const auto& c : summary.columns) out << "," << c;
     out << ",run_dir\n";
     for (std::size_t i = 0; i < seeds.size(); ++i) {
         out << seeds[i].seed;
-        for (const auto& c : columns) {
+        for (const auto& c : summary.columns) {
             out << ",";
-            if (auto it = rows[i].find(c); it != rows[i].end()) out << num(it->second);
+            if (auto it = summary.rows[i].find(c); it != summary.rows[i].end()) out << num(it->second);
         }
         out << "," << seeds[i].run_dir.filename().string() << "\n";
-    }
-    std::vector<Spread> spreads;
-    for (const auto& c : columns) {
-        std::vector<double> v;
-        for (const auto& row : rows) {
-            if (auto it = row.find(c); it != row.end()) v.push_back(it->second);
-        }
-        spreads.push_back(spread(v));
     }
     const std::pair<const char*, double Spread::*> stats[] = {
         {"median", &Spread::median}, {"min", &Spread::min}, {"max", &Spread::max}};
     for (const auto& [label, member] : stats) {
         out << label;
-        for (const auto& sp : spreads) out << "," << (sp.n ? num(sp.*member) : "");
+        for (const auto& sp : summary.spreads) out << "," << (sp.n ? num(sp.*member) : "");
         out << ",\n";
     }
     out << "spread";
-    for (const auto& sp : spreads) out << "," << (sp.n ? num(sp.max - sp.min) : "");
+    for (const auto& sp : summary.spreads) out << "," << (sp.n ? num(sp.max - sp.min) : "");
     out << ",\n";
     return out.str();
 }

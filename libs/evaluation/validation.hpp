@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -60,6 +61,16 @@ struct Spread {
     int n = 0;
 };
 Spread spread(std::vector<double> values);
+
+// The scores of a repeated run: columns "best_p" (training view), then "<set>@<target>" for
+// every validation cell in first-seen order; per seed its values (absent: no such score);
+// per column the spread over the seeds that have it.
+struct SeedsSummary {
+    std::vector<std::string> columns;
+    std::vector<std::map<std::string, double>> rows;
+    std::vector<Spread> spreads;
+};
+SeedsSummary summarize_seeds(const std::vector<SeedOutcome>& seeds);
 
 // summary.csv of a repeated run: per seed the best training p and every validation p, then
 // rows "median", "min", "max", "spread" over the seeds.

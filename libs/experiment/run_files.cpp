@@ -11,18 +11,23 @@ namespace maptune::experiment {
 namespace fs = std::filesystem;
 using params::YamlPath;
 
-namespace {
-
-std::vector<std::string> split(const std::string& line, char sep) {
+std::vector<std::string> split_csv_line(const std::string& line) {
     std::vector<std::string> out;
     std::string cell;
     std::istringstream in(line);
-    while (std::getline(in, cell, sep)) out.push_back(cell);
-    if (!line.empty() && line.back() == sep) out.emplace_back();
+    while (std::getline(in, cell, ',')) out.push_back(cell);
+    if (!line.empty() && line.back() == ',') out.emplace_back();
     return out;
 }
 
-}  // namespace
+int baseline_index(const Experiment& e, const std::vector<EvaluationRecord>& records) {
+    if (e.start_points.empty()) return -1;
+    const std::string key = e.space.canonical_key(e.space.round(e.start_points.front()));
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        if (!records[i].failed && e.space.canonical_key(records[i].params) == key) return static_cast<int>(i);
+    }
+    return -1;
+}
 
 std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space) {
     std::ostringstream out;
@@ -51,7 +56,7 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
     if (!in) return out;
     std::string line;
     std::getline(in, line);
-    const auto header = split(line, ',');
+    const auto header = split_csv_line(line);
     const std::size_t first_param = 9;
     if (header.size() != first_param + space.size() + 1) {
         throw params::ConfigError(file.string() + ":1: header does not match the design space; "
@@ -60,7 +65,7 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
     int line_no = 1;
     while (std::getline(in, line)) {
         ++line_no;
-        const auto c = split(line, ',');
+        const auto c = split_csv_line(line);
         if (c.size() != header.size()) {
             throw params::ConfigError(file.string() + ":" + std::to_string(line_no) + ": expected " +
                                       std::to_string(header.size()) + " columns");

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "experiment/experiment.hpp"
 #include "params/parameter_set.hpp"
 #include "params/parameter_space.hpp"
 #include "store/observation_store.hpp"
@@ -26,6 +27,14 @@ struct EvaluationRecord {
     double wall_s = 0;
     std::string origin;              // "start", "initial", "model", "resumed"
 };
+
+// The baseline of a run: the index in `records` of the successful evaluation of the
+// experiment's first start point, or -1 when there is none.
+int baseline_index(const Experiment& e, const std::vector<EvaluationRecord>& records);
+
+// One line of a CSV file of maptune's (no quoting: cells never hold commas), a trailing
+// comma giving an empty last cell.
+std::vector<std::string> split_csv_line(const std::string& line);
 
 // trials.csv of a run directory: header and one line per evaluation.
 std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space);

@@ -1,5 +1,5 @@
 #pragma once
-// Small readers for the real test clouds in ../shared/data (PLY ascii/binary, CSV, bun.conf,
+// Small readers for real scans such as tests/data (PLY ascii/binary, CSV, bun.conf,
 // 4x4 text matrices), so tests and benches need no PCL I/O. Errors: empty result / false.
 
 #include <Eigen/Geometry>

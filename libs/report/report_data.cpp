@@ -47,15 +47,6 @@ json yaml_json(const YAML::Node& n) {
     return nullptr;
 }
 
-std::vector<std::string> split_csv(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cell;
-    std::istringstream in(line);
-    while (std::getline(in, cell, ',')) out.push_back(cell);
-    if (!line.empty() && line.back() == ',') out.emplace_back();
-    return out;
-}
-
 // validation.csv as a list of objects (numbers where a cell reads as one).
 json read_validation(const fs::path& file) {
     json rows = json::array();
@@ -63,9 +54,9 @@ json read_validation(const fs::path& file) {
     if (!in) return rows;
     std::string line;
     std::getline(in, line);
-    const auto header = split_csv(line);
+    const auto header = experiment::split_csv_line(line);
     while (std::getline(in, line)) {
-        const auto cells = split_csv(line);
+        const auto cells = experiment::split_csv_line(line);
         json row = json::object();
         for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) {
             row[header[i]] = cells[i].empty() ? json(nullptr) : scalar_json(cells[i]);
@@ -126,17 +117,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     }
     out["space"] = space;
 
-    // The baseline: the evaluation of the first start point, as the run's summary names it.
-    int baseline = -1;
-    if (!e.start_points.empty()) {
-        const std::string key = e.space.canonical_key(e.space.round(e.start_points.front()));
-        for (std::size_t i = 0; i < trials.size(); ++i) {
-            if (!trials[i].failed && e.space.canonical_key(trials[i].params) == key) {
-                baseline = static_cast<int>(i);
-                break;
-            }
-        }
-    }
+    const int baseline = experiment::baseline_index(e, trials);
 
     json evaluations = json::array();
     int best = -1;
@@ -179,6 +160,11 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
         if (db_path.empty()) throw std::runtime_error("no observation store next to the run (give --db)");
         db = std::make_unique<store::ObservationStore>(db_path);
         ds = dataset::Dataset::open(dataset_dir);
+        // The run's observations are stored under the dataset id it ran on.
+        if (!run.dataset_id.empty() && ds->manifest().id != run.dataset_id) {
+            throw std::runtime_error(dataset_dir + " is now dataset " + ds->manifest().id + ", the run used " +
+                                     run.dataset_id);
+        }
         pairs = ds->pairs(dataset::parse_view(e.view), dataset::parse_reference(e.reference));
     } catch (const std::exception& err) {
         notes.push_back(std::string("per-pair errors left out: ") + err.what());
@@ -195,9 +181,9 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
                      {"m", r.m}};
         json errors = json::array();
         if (db && ds) {
-            experiment::RunRecord on_disk = run;
-            on_disk.dataset_id = ds->manifest().id;  // the dataset as it is now, not as recorded
-            const store::ObservationKey key = experiment::observation_key(on_disk, e.space, r.params);
+            experiment::RunRecord on = run;
+            on.dataset_id = ds->manifest().id;  // equal to the recorded one (checked above), or not recorded
+            const store::ObservationKey key = experiment::observation_key(on, e.space, r.params);
             if (const auto obs = db->get(key)) {
                 const auto rep = scoring::score_observation(*ds, pairs, obs->pairs, settings);
                 for (const auto& ps : rep.per_pair) {
@@ -238,16 +224,21 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
         }
         model["importance"] = importance;
 
-        json slices = json::array();
+        // Every slice's points in one posterior call (one factorization of the model).
+        std::vector<std::vector<double>> points;
+        std::vector<std::size_t> first{0};  // slice j: points[first[j], first[j + 1])
         for (std::size_t j = 0; j < box.size(); ++j) {
-            std::vector<std::vector<double>> points;
             for (double v : axis_values(box[j], options.slice_points)) {
                 points.push_back(at);
                 points.back()[j] = v;
             }
-            const auto post = opt.posterior(points);
+            first.push_back(points.size());
+        }
+        const auto post = opt.posterior(points);
+        json slices = json::array();
+        for (std::size_t j = 0; j < box.size() && !post.empty(); ++j) {
             json line = json::array();
-            for (std::size_t k = 0; k < post.size(); ++k) {
+            for (std::size_t k = first[j]; k < first[j + 1]; ++k) {
                 line.push_back({{"x", points[k][j]}, {"mean", post[k].mean}, {"std", post[k].std}});
             }
             slices.push_back({{"parameter", box[j].name}, {"at", at[j]}, {"points", line}});
@@ -271,24 +262,25 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
             std::size_t gy = options.grid_y.empty() ? order[0] : index_of(options.grid_y);
             if (options.grid_y.empty()) gy = gx == order[0] ? order[1] : order[0];
             if (gx == gy) throw ConfigError("--grid: give two different parameters");
-            std::vector<std::vector<double>> points;
+            std::vector<std::vector<double>> cell_points;
             const auto xs = axis_values(box[gx], options.grid_points);
             const auto ys = axis_values(box[gy], options.grid_points);
             for (double y : ys) {
                 for (double x : xs) {
-                    points.push_back(at);
-                    points.back()[gx] = x;
-                    points.back()[gy] = y;
+                    cell_points.push_back(at);
+                    cell_points.back()[gx] = x;
+                    cell_points.back()[gy] = y;
                 }
             }
-            const auto post = opt.posterior(points);
+            const auto cell_post = opt.posterior(cell_points);
             json cells = json::array();
-            for (std::size_t k = 0; k < post.size(); ++k) {
-                cells.push_back({{"x", points[k][gx]},
-                                 {"y", points[k][gy]},
-                                 {"mean", post[k].mean},
-                                 {"std", post[k].std},
-                                 {"acquisition", std::isfinite(post[k].acquisition) ? json(post[k].acquisition) : json(nullptr)}});
+            for (std::size_t k = 0; k < cell_post.size(); ++k) {
+                const auto& c = cell_post[k];
+                cells.push_back({{"x", cell_points[k][gx]},
+                                 {"y", cell_points[k][gy]},
+                                 {"mean", c.mean},
+                                 {"std", c.std},
+                                 {"acquisition", std::isfinite(c.acquisition) ? json(c.acquisition) : json(nullptr)}});
             }
             model["grid"] = {{"x", box[gx].name}, {"y", box[gy].name}, {"at", {at[gx], at[gy]}}, {"cells", cells}};
         }

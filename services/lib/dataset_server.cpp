@@ -34,19 +34,22 @@ DatasetServer::DatasetServer(dds::Participant& participant, DatasetServerOptions
     if (options_.chunk_bytes == 0) options_.chunk_bytes = 512 * 1024;
     for (const auto& dir : options_.datasets) {
         const auto ds = dataset::Dataset::open(dir);  // throws DatasetError naming the file
-        // Results are stored under the dataset id: never serve other content under it.
-        if (std::string recomputed; !ds.verify(&recomputed)) {
-            throw dataset::DatasetError(fs::path(dir) / "manifest.yaml",
-                                        "the files changed since the manifest was written (content id " + recomputed +
-                                            ", manifest id " + ds.manifest().id +
-                                            "): restore them, or generate/import the dataset again");
-        }
         Served s;
         s.dir = dir;
         s.announcement.dataset_id(ds.manifest().id);
         s.announcement.name(ds.manifest().name);
         s.announcement.server_id(options_.server_id);
         s.announcement.files(list_dataset_files(dir));
+        // Results are stored under the dataset id: never serve other content under it. The
+        // files were just hashed for the announcement; verify with those hashes.
+        std::map<std::string, std::uint64_t> hashes;
+        for (const auto& f : s.announcement.files()) hashes[f.path()] = std::stoull(f.hash(), nullptr, 16);
+        if (std::string recomputed; !ds.verify(&recomputed, &hashes)) {
+            throw dataset::DatasetError(fs::path(dir) / "manifest.yaml",
+                                        "the files changed since the manifest was written (content id " + recomputed +
+                                            ", manifest id " + ds.manifest().id +
+                                            "): restore them, or generate/import the dataset again");
+        }
         ids_.push_back(ds.manifest().id);
         datasets_[ds.manifest().id] = std::move(s);
     }

@@ -25,14 +25,8 @@ void print_summary(const experiment::Experiment& e, const RunSummary& s, const f
         return;
     }
     const EvaluationRecord& best = s.evaluations[static_cast<std::size_t>(s.best)];
-    // The baseline: the first start point, when it was evaluated.
-    const EvaluationRecord* baseline = nullptr;
-    if (!e.start_points.empty()) {
-        const std::string key = e.space.canonical_key(e.space.round(e.start_points.front()));
-        for (const auto& r : s.evaluations) {
-            if (!r.failed && e.space.canonical_key(r.params) == key) baseline = &r;
-        }
-    }
+    const int base = experiment::baseline_index(e, s.evaluations);
+    const EvaluationRecord* baseline = base >= 0 ? &s.evaluations[static_cast<std::size_t>(base)] : nullptr;
     std::cout << "\nparameter      " << (baseline ? "   baseline" : "") << "       best\n";
     for (const auto& spec : e.space.specs()) {
         const int dec = spec.type == params::ParamType::kInt ? 0 : 2;

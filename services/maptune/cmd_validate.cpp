@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <iostream>
 #include <memory>
-#include <sstream>
 
 #include "commands.hpp"
 #include "compare_output.hpp"
@@ -54,31 +53,18 @@ evaluation::CompareResult validate_run_dir(const fs::path& run_dir, const experi
 
 void write_seeds_summary(const fs::path& root, const std::vector<evaluation::SeedOutcome>& seeds,
                          std::ostream& out) {
-    const std::string csv = evaluation::seeds_summary_csv(seeds);
-    dataset::write_file(root / "summary.csv", csv);
-    // The aggregate rows, transposed: one line per score.
-    std::vector<std::vector<std::string>> rows;
-    std::istringstream in(csv);
-    std::string line;
-    while (std::getline(in, line)) {
-        std::vector<std::string> cells;
-        std::string cell;
-        std::istringstream l(line);
-        while (std::getline(l, cell, ',')) cells.push_back(cell);
-        rows.push_back(cells);
-    }
+    dataset::write_file(root / "summary.csv", evaluation::seeds_summary_csv(seeds));
+    // One line per score.
+    const auto summary = evaluation::summarize_seeds(seeds);
     Table t;
     t.columns = {"score", "median", "min", "max", "spread"};
     t.numeric = {false, true, true, true, true};
-    const std::size_t n_seeds = seeds.size();
-    for (std::size_t c = 1; c + 1 < rows.front().size(); ++c) {
-        std::vector<std::string> row{rows.front()[c]};
-        for (std::size_t r = 1 + n_seeds; r < rows.size() && r < 1 + n_seeds + 4; ++r) {
-            const std::string v = c < rows[r].size() ? rows[r][c] : "";
-            row.push_back(v.empty() ? "" : params::format_fixed(std::stod(v), 4));
-        }
-        t.rows.push_back(std::move(row));
+    for (std::size_t c = 0; c < summary.columns.size(); ++c) {
+        const auto& sp = summary.spreads[c];
+        auto cell = [&](double v) { return sp.n ? params::format_fixed(v, 4) : std::string(); };
+        t.rows.push_back({summary.columns[c], cell(sp.median), cell(sp.min), cell(sp.max), cell(sp.max - sp.min)});
     }
+    const std::size_t n_seeds = seeds.size();
     out << "\nover " << n_seeds << " seeds (" << (root / "summary.csv").string() << "):\n\n";
     write_table(out, t, TableFormat::kMarkdown);
 }
