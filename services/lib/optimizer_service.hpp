@@ -1,11 +1,10 @@
 #pragma once
-// optimizer: runs an experiment by Bayesian optimization in ask/tell form over DDS. Keeps one
-// request in flight per free worker slot (or the experiment's batch), scores each reply
-// against the experiment's reference, publishes BestSoFar (latched: a late subscriber gets
-// the current best at once) and OptimizerStatus, and writes the run directory: run.yaml (what
-// ran, on what, when: `maptune validate` and `report` read it), trials.csv, best_params.yaml,
-// best_params.ros2.yaml, predicted_best.yaml (the model's), gp_hyperparameters.csv. A restart with the same
-// run directory resumes from its trials.csv; re-asked sets come back from the store.
+// optimizer: the DDS adapter of the tuning core (libs/tuning): sends its requests as
+// ObservationRequests (one in flight per free worker slot, or the experiment's batch), hands
+// ObservationReplies back to it, publishes BestSoFar (latched: a late subscriber gets the current
+// best at once) and OptimizerStatus, and keeps the run directory's files (tuning::RunDirectory)
+// current. A restart with the same run directory resumes from its trials.csv; re-asked sets
+// come back from the store.
 
 #include <functional>
 #include <map>
@@ -19,6 +18,7 @@
 #include "experiment/run_files.hpp"
 #include "maptunePubSubTypes.h"
 #include "scoring/scoring.hpp"
+#include "tuning/tuning_run.hpp"
 
 namespace maptune::services {
 
@@ -36,15 +36,7 @@ struct OptimizerServiceOptions {
 };
 
 using experiment::EvaluationRecord;
-
-struct RunSummary {
-    std::vector<EvaluationRecord> evaluations;
-    int best = -1;                   // index into evaluations
-    std::optional<params::ParameterSet> predicted_best;
-    double predicted_mean = 0, predicted_std = 0;
-    double m_star = 0;
-    std::string stop_reason;
-};
+using tuning::RunSummary;
 
 class OptimizerService {
 public:
@@ -54,20 +46,10 @@ public:
     RunSummary run();
 
 private:
-    struct InFlight {
-        std::uint64_t proposal = 0;
-        msg::v1::ObservationRequest request;
-        double sent_at = 0;       // first send: the evaluation's wall time starts here
-        double last_sent_at = 0;  // for re-sending
-        std::string origin;
-    };
     void log(const std::string& line) const;
-    // Whether a reply is for the parameter set of the request (rounded, completed keys).
-    bool same_set(const msg::v1::ObservationReply& reply, const msg::v1::ObservationRequest& request) const;
-    void write_files(const RunSummary& summary) const;
-    // run.yaml; `finished` adds the end time, wall time and stop reason.
-    void write_run_record(const RunSummary& summary, bool finished) const;
-    void publish(const RunSummary& summary, int iteration);
+    int compatible_slots(std::string* version);
+    void publish(const tuning::TuningRun& run, const EvaluationRecord& rec);
+    void send(const tuning::Request& r);
 
     dds::Participant& participant_;
     DatasetMirror& mirror_;
@@ -78,11 +60,8 @@ private:
     std::mutex mutex_;
     std::vector<msg::v1::ObservationReply> replies_;
     std::map<std::string, msg::v1::WorkerStatus> workers_;
-    std::string last_hyperparameters_;
     std::string request_prefix_;  // "<experiment>/<incarnation>/"
-    // For run.yaml.
-    std::string dataset_id_, dataset_name_, matcher_version_, started_utc_;
-    double started_s_ = 0;
+    std::string dataset_id_, matcher_version_;
     // Last, so destroyed first: no callback runs once the rest starts to go away.
     std::vector<dds::Subscription> subscriptions_;
 };

@@ -1,0 +1,119 @@
+#include "run_directory.hpp"
+
+#include <fstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "dataset/io.hpp"
+#include "params/export.hpp"
+#include "params/yaml_util.hpp"
+
+namespace maptune::tuning {
+
+namespace fs = std::filesystem;
+
+namespace {
+std::string fmt(double v, int decimals = 4) { return params::format_fixed(v, decimals); }
+// Shortest text that reads back as the same double (YAML's own emitter writes 17 digits).
+std::string num(double v) { return params::format_double(v); }
+}  // namespace
+
+RunDirectory::RunDirectory(fs::path dir, const experiment::Experiment& experiment, RunInfo info)
+    : dir_(std::move(dir)), experiment_(experiment), info_(std::move(info)) {
+    fs::create_directories(dir_);
+}
+
+void RunDirectory::write_results(const RunSummary& summary) const {
+    const auto& e = experiment_;
+    dataset::write_file(dir_ / "trials.csv", experiment::trials_csv(summary.evaluations, e.space));
+    if (summary.best >= 0) {
+        const auto& b = summary.evaluations[static_cast<std::size_t>(summary.best)];
+        const std::string header = "best of experiment " + info_.experiment_id + ": p = " + fmt(b.p) +
+                                   ", m = " + std::to_string(b.m) + " (evaluation " + std::to_string(b.number) + ")";
+        dataset::write_file(dir_ / "best_params.yaml", params::to_plain_yaml(b.params, e.space, header));
+        dataset::write_file(dir_ / "best_params.ros2.yaml",
+                            "# " + header + "\n" + params::to_ros2_yaml(b.params, e.space, "map_matcher"));
+    }
+    if (summary.predicted_best) {
+        const std::string header = "predicted best of experiment " + info_.experiment_id + " (GP posterior mean " +
+                                   fmt(summary.predicted_mean) + " +- " + fmt(summary.predicted_std) + " after " +
+                                   std::to_string(summary.evaluations.size()) + " evaluations)";
+        dataset::write_file(dir_ / "predicted_best.yaml",
+                            params::to_plain_yaml(e.space.round(*summary.predicted_best), e.space, header));
+    }
+}
+
+void RunDirectory::append_hyperparameters(int evaluation, const gp::Hyperparameters& hp) const {
+    const auto& names = experiment_.optimize;
+    if (hp.length_scales.size() != static_cast<Eigen::Index>(names.size())) return;  // no fit yet
+    const fs::path file = dir_ / "gp_hyperparameters.csv";
+    std::error_code ec;
+    const bool fresh = !fs::exists(file, ec) || fs::file_size(file, ec) == 0;
+    std::ofstream out(file, std::ios::app);
+    if (fresh) {
+        out << "evaluation,signal_variance,noise_variance";
+        for (const auto& name : names) out << ",length_scale_" << name;
+        out << "\n";
+    }
+    out << evaluation << "," << params::format_double(hp.signal_variance) << ","
+        << params::format_double(hp.noise_variance);
+    for (Eigen::Index i = 0; i < hp.length_scales.size(); ++i) out << "," << params::format_double(hp.length_scales(i));
+    out << "\n";
+}
+
+void RunDirectory::write_record(const RunSummary& summary, const std::optional<RunEnd>& end) const {
+    const auto& e = experiment_;
+    YAML::Emitter out;
+    out << YAML::BeginMap;
+    out << YAML::Key << "experiment" << YAML::Value << e.name;
+    out << YAML::Key << "experiment_id" << YAML::Value << info_.experiment_id;
+    std::error_code ec;
+    const fs::path file = e.file.empty() ? fs::path() : fs::absolute(e.file, ec).lexically_normal();
+    out << YAML::Key << "experiment_file" << YAML::Value << file.string();
+    out << YAML::Key << "dataset" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "dir" << YAML::Value << fs::absolute(e.dataset_dir, ec).lexically_normal().string();
+    out << YAML::Key << "id" << YAML::Value << info_.dataset_id;
+    out << YAML::Key << "name" << YAML::Value << info_.dataset_name;
+    out << YAML::Key << "view" << YAML::Value << e.view;
+    out << YAML::Key << "reference" << YAML::Value << e.reference;
+    out << YAML::EndMap;
+    out << YAML::Key << "measure" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "e_star" << YAML::Value << num(e.e_star);
+    out << YAML::Key << "m_star" << YAML::Value << num(summary.m_star);
+    out << YAML::Key << "m_star_rule" << YAML::Value << (e.m_star ? "given" : "auto");
+    out << YAML::Key << "w_v" << YAML::Value << num(e.w_v);
+    out << YAML::EndMap;
+    out << YAML::Key << "matcher" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "id" << YAML::Value << info_.matcher_id;
+    out << YAML::Key << "version" << YAML::Value << info_.matcher_version;
+    out << YAML::EndMap;
+    out << YAML::Key << "optimizer" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "acquisition" << YAML::Value << e.acquisition;
+    out << YAML::Key << "seed" << YAML::Value << e.seed;
+    out << YAML::Key << "optimize" << YAML::Value << YAML::Flow << e.optimize;
+    out << YAML::EndMap;
+    out << YAML::Key << "budget" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "evaluations" << YAML::Value << e.max_evaluations;
+    out << YAML::Key << "seconds" << YAML::Value << num(e.max_seconds);
+    out << YAML::EndMap;
+    out << YAML::Key << "started_utc" << YAML::Value << info_.started_utc;
+    out << YAML::Key << "state" << YAML::Value << (end ? "finished" : "running");
+    if (end) {
+        out << YAML::Key << "finished_utc" << YAML::Value << end->finished_utc;
+        out << YAML::Key << "wall_s" << YAML::Value << fmt(end->wall_s, 1);
+        out << YAML::Key << "stop_reason" << YAML::Value << summary.stop_reason;
+        out << YAML::Key << "evaluations" << YAML::Value << summary.evaluations.size();
+        if (summary.best >= 0) {
+            const auto& b = summary.evaluations[static_cast<std::size_t>(summary.best)];
+            out << YAML::Key << "best" << YAML::Value << YAML::BeginMap;
+            out << YAML::Key << "evaluation" << YAML::Value << b.number;
+            out << YAML::Key << "p" << YAML::Value << num(b.p);
+            out << YAML::EndMap;
+        }
+    }
+    out << YAML::EndMap;
+    dataset::write_file(dir_ / "run.yaml", "# maptune run record (written by the optimizer; read by validate and report)\n" +
+                                               std::string(out.c_str()) + "\n");
+}
+
+}  // namespace maptune::tuning

@@ -1,0 +1,49 @@
+#pragma once
+// The files of a run directory, written as a run goes (what `maptune validate`, `report`,
+// `trials` and a resumed run read): run.yaml (what ran, on what, when), trials.csv,
+// best_params.yaml, best_params.ros2.yaml, predicted_best.yaml and gp_hyperparameters.csv.
+// Every file but the hyperparameter log is replaced atomically.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "experiment/experiment.hpp"
+#include "gp/kernel.hpp"
+#include "tuning_run.hpp"
+
+namespace maptune::tuning {
+
+struct RunInfo {
+    std::string experiment_id;
+    std::string dataset_id, dataset_name;
+    std::string matcher_id, matcher_version;
+    std::string started_utc;
+};
+
+struct RunEnd {
+    std::string finished_utc;
+    double wall_s = 0;
+};
+
+class RunDirectory {
+public:
+    // Creates the directory.
+    RunDirectory(std::filesystem::path dir, const experiment::Experiment& experiment, RunInfo info);
+
+    const std::filesystem::path& dir() const { return dir_; }
+    std::filesystem::path trials_file() const { return dir_ / "trials.csv"; }
+    // run.yaml; `end` marks the run finished (end time, wall time, stop reason, best).
+    void write_record(const RunSummary& summary, const std::optional<RunEnd>& end = std::nullopt) const;
+    // trials.csv, best_params*.yaml, predicted_best.yaml.
+    void write_results(const RunSummary& summary) const;
+    // One line of gp_hyperparameters.csv (header first when the file is new or empty).
+    void append_hyperparameters(int evaluation, const gp::Hyperparameters& hp) const;
+
+private:
+    std::filesystem::path dir_;
+    const experiment::Experiment& experiment_;
+    RunInfo info_;
+};
+
+}  // namespace maptune::tuning

@@ -1,0 +1,158 @@
+#include "tuning_run.hpp"
+
+#include <stdexcept>
+
+namespace maptune::tuning {
+
+TuningRun::TuningRun(experiment::Experiment experiment, TuningOptions options, Scorer scorer, double m_star)
+    : experiment_(std::move(experiment)),
+      options_(std::move(options)),
+      scorer_(std::move(scorer)),
+      optimizer_(experiment::search_space(experiment_), experiment::optimizer_options(experiment_)) {
+    if (options_.experiment_id.empty()) options_.experiment_id = experiment_.name;
+    if (options_.incarnation.empty()) throw std::invalid_argument("TuningRun: an incarnation id is required");
+    if (!scorer_) throw std::invalid_argument("TuningRun: a scorer is required");
+    summary_.m_star = m_star;
+    for (const auto& sp : experiment_.start_points) {
+        optimizer_.add_start_point(experiment::optimizer_values(experiment_, sp));
+    }
+}
+
+std::string TuningRun::set_key(const params::ParameterSet& set) const {
+    const auto& space = experiment_.space;
+    try {
+        return space.canonical_key(space.round(space.complete(set)));
+    } catch (const std::exception&) {
+        return {};
+    }
+}
+
+void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
+    if (trials.empty()) return;
+    if (!summary_.evaluations.empty() || !in_flight_.empty() || resumed_ > 0) {
+        throw std::logic_error("TuningRun::resume: only before the first evaluation");
+    }
+    std::vector<bo::Observation> history;
+    for (auto r : trials) {
+        history.push_back({experiment::optimizer_values(experiment_, r.params), r.p, r.failed, r.error});
+        r.origin = "resumed";
+        add(std::move(r));
+    }
+    // A resumed run does not re-add its start points: they are in the history already.
+    optimizer_ = bo::Optimizer(experiment::search_space(experiment_), experiment::optimizer_options(experiment_),
+                               history);
+    resumed_ = trials.size();
+    sequence_ = trials.size();
+    if (const auto pb = optimizer_.predicted_best()) {
+        summary_.predicted_best = experiment::full_set(experiment_, pb->values);
+        summary_.predicted_mean = pb->mean;
+        summary_.predicted_std = pb->std;
+    }
+}
+
+void TuningRun::add(EvaluationRecord record) {
+    summary_.evaluations.push_back(std::move(record));
+    const auto& r = summary_.evaluations.back();
+    if (!r.failed && (summary_.best < 0 || r.p > summary_.evaluations[static_cast<std::size_t>(summary_.best)].p)) {
+        summary_.best = static_cast<int>(summary_.evaluations.size()) - 1;
+    }
+}
+
+std::size_t TuningRun::failed() const {
+    std::size_t n = 0;
+    for (const auto& e : summary_.evaluations) n += e.failed ? 1 : 0;
+    return n;
+}
+
+std::optional<std::string> TuningRun::stop_reason(double now_s, bool stop_requested) const {
+    if (stop_requested) return std::string("stopped by signal");
+    if (static_cast<int>(summary_.evaluations.size()) >= experiment_.max_evaluations) {
+        return std::string("evaluation budget used");
+    }
+    const bool out_of_time = experiment_.max_seconds > 0 && started_at_ && now_s - *started_at_ > experiment_.max_seconds;
+    if (out_of_time && in_flight_.empty()) return std::string("time budget used");
+    return std::nullopt;
+}
+
+std::vector<Request> TuningRun::ask(int slots, double now_s) {
+    if (!started_at_) started_at_ = now_s;
+    std::vector<Request> out;
+    if (experiment_.max_seconds > 0 && now_s - *started_at_ > experiment_.max_seconds) return out;
+    const int target = experiment_.batch > 0 ? experiment_.batch : std::max(1, slots);
+    const int done = static_cast<int>(summary_.evaluations.size());
+    while (static_cast<int>(in_flight_.size()) < target &&
+           done + static_cast<int>(in_flight_.size()) < experiment_.max_evaluations) {
+        const auto proposals = optimizer_.ask(1);
+        if (proposals.empty()) break;
+        const auto& pr = proposals.front();
+        InFlight f;
+        f.proposal = pr.id;
+        f.request.id = options_.experiment_id + "/" + options_.incarnation + "/" + std::to_string(++sequence_);
+        f.request.params = experiment::full_set(experiment_, pr.values);
+        f.request.origin = pr.origin;
+        f.key = set_key(f.request.params);
+        f.sent_at = f.last_sent_at = now_s;
+        out.push_back(f.request);
+        in_flight_[f.request.id] = std::move(f);
+    }
+    return out;
+}
+
+std::vector<Request> TuningRun::due_resends(double now_s) {
+    std::vector<Request> out;
+    for (auto& [id, f] : in_flight_) {
+        if (now_s - f.last_sent_at > options_.resend_s) {
+            f.last_sent_at = now_s;
+            out.push_back(f.request);
+        }
+    }
+    return out;
+}
+
+ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord* accepted) {
+    const auto it = in_flight_.find(reply.request_id);
+    if (it == in_flight_.end()) return ReplyOutcome::kNotInFlight;
+    // An answer whose set differs is someone else's: never told to the model.
+    if (reply.ok && set_key(reply.params) != it->second.key) return ReplyOutcome::kOtherSet;
+    const InFlight f = it->second;
+    in_flight_.erase(it);
+
+    EvaluationRecord rec;
+    rec.number = static_cast<int>(summary_.evaluations.size()) + 1;
+    rec.origin = f.request.origin;
+    rec.wall_s = now_s - f.sent_at;
+    rec.from_store = reply.from_store;
+    rec.params = experiment_.space.round(f.request.params);
+    std::string error = reply.ok ? "" : (reply.error.empty() ? std::string("evaluation failed") : reply.error);
+    if (error.empty()) {
+        try {
+            const measure::Score s = scorer_(reply.pairs);
+            rec.params = experiment_.space.round(reply.params);
+            rec.p = s.p;
+            rec.v = s.v;
+            rec.eps = s.eps;
+            rec.m = s.m;
+        } catch (const std::exception& ex) {
+            error = std::string("cannot score the reply: ") + ex.what();
+        }
+    }
+    if (!error.empty()) {
+        rec.failed = true;
+        rec.error = error;
+        rec.p = rec.v = rec.eps = 0;
+        rec.m = 0;
+        optimizer_.tell_failed(f.proposal, error);
+    } else {
+        optimizer_.tell(f.proposal, rec.p);
+    }
+    add(rec);
+    if (const auto pb = optimizer_.predicted_best()) {
+        summary_.predicted_best = experiment::full_set(experiment_, pb->values);
+        summary_.predicted_mean = pb->mean;
+        summary_.predicted_std = pb->std;
+    }
+    if (accepted) *accepted = summary_.evaluations.back();
+    return ReplyOutcome::kAccepted;
+}
+
+}  // namespace maptune::tuning

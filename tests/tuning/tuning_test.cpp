@@ -1,0 +1,237 @@
+// The transport-free tuning core: request identities across restarts, replies checked against
+// the set asked for, duplicates and stale answers ignored, failures told as failures, resume,
+// budgets and re-sends — the defects of issue 12 that lived in the DDS optimizer's loop.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include "temp_dataset.hpp"
+#include "tuning/run_directory.hpp"
+#include "tuning/tuning_run.hpp"
+
+namespace maptune {
+namespace {
+
+namespace fs = std::filesystem;
+using tuning::ReplyOutcome;
+const std::string kSource = MAPTUNE_SOURCE_DIR;
+
+class TuningRunTest : public ::testing::Test {
+protected:
+    void SetUp() override { dir_ = test::make_temp_dir("maptune_tuning_"); }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    experiment::Experiment load(const std::string& extra = "",
+                                const std::string& optimizer = "optimizer: {seed: 3, initial_points: 2}\n") {
+        std::ofstream(dir_ / "baseline.yaml") << "r_N: 0.2\nv_K: 0.1\nt_K: 1.0\nr_D: 0.2\nn_C: 3\nt_C: 0.5\n"
+                                                 "r_LRF: 0.2\nv_TF: 0.5\nn_TF: 8\n";
+        std::ofstream(dir_ / "exp.yaml") << "name: core\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
+                                         << "dataset: " << (dir_ / "none").string()
+                                         << "\nview: complete\nreference: gt\nmeasure: {m_star: 4}\n"
+                                         << optimizer
+                                         << "start_points: [baseline.yaml]\n" << extra;
+        return experiment::load_experiment((dir_ / "exp.yaml").string());
+    }
+
+    // p grows with the number of matched pairs; no pairs cannot be scored.
+    static measure::Score score(const std::vector<store::PairRecord>& pairs) {
+        if (pairs.empty()) throw std::runtime_error("no per-pair results");
+        measure::Score s;
+        for (const auto& p : pairs) s.m += p.matched ? 1 : 0;
+        s.v = static_cast<double>(s.m) / (1.0 + static_cast<double>(s.m));
+        s.eps = 0.9;
+        s.p = 0.5 * s.v + 0.5 * s.eps;
+        return s;
+    }
+
+    static tuning::Reply answer(const tuning::Request& r, int matched) {
+        tuning::Reply reply;
+        reply.request_id = r.id;
+        reply.params = r.params;
+        for (int i = 0; i < 5; ++i) {
+            store::PairRecord p;
+            p.pair_id = "a|" + std::to_string(i);
+            p.matched = i < matched;
+            reply.pairs.push_back(p);
+        }
+        return reply;
+    }
+
+    tuning::TuningRun make(const experiment::Experiment& e, const std::string& incarnation, double resend_s = 15) {
+        return tuning::TuningRun(e, {"", incarnation, resend_s}, &TuningRunTest::score, 4.0);
+    }
+
+    fs::path dir_;
+};
+
+TEST_F(TuningRunTest, FirstRequestIsTheStartPointAndIdsCarryTheIncarnation) {
+    auto e = load("budget: {evaluations: 5}\n");
+    auto run = make(e, "inc1");
+    const auto asked = run.ask(1, 0.0);
+    ASSERT_EQ(asked.size(), 1u);
+    EXPECT_EQ(asked[0].origin, "start");
+    EXPECT_EQ(asked[0].id, "core/inc1/1");
+    EXPECT_EQ(run.set_key(asked[0].params), run.set_key(e.start_points[0]));
+    EXPECT_EQ(run.in_flight(), 1u);
+    EXPECT_TRUE(run.ask(1, 0.0).empty()) << "one slot, one request in flight";
+}
+
+TEST_F(TuningRunTest, ARestartedRunNeverTakesAnEarlierLifesReply) {
+    auto e = load("budget: {evaluations: 6}\n");
+    auto first = make(e, "life1");
+    auto r1 = first.ask(2, 0.0);
+    ASSERT_EQ(r1.size(), 2u);
+    tuning::EvaluationRecord rec;
+    ASSERT_EQ(first.tell(answer(r1[0], 2), 1.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.number, 1);
+
+    // The process dies with r1[1] in flight; the restart resumes from the trials file.
+    auto second = make(e, "life2");
+    second.resume(first.summary().evaluations);
+    const auto r2 = second.ask(2, 0.0);
+    ASSERT_EQ(r2.size(), 2u);
+    std::set<std::string> ids;
+    for (const auto& r : r1) ids.insert(r.id);
+    for (const auto& r : r2) EXPECT_EQ(ids.count(r.id), 0u) << r.id << " reused after a restart";
+    // The late reply of the earlier life — even with a matching set — is not ours.
+    auto stale = answer(r1[1], 5);
+    EXPECT_EQ(second.tell(stale, 2.0), ReplyOutcome::kNotInFlight);
+    EXPECT_EQ(second.summary().evaluations.size(), 1u);
+    EXPECT_EQ(second.in_flight(), 2u);
+}
+
+TEST_F(TuningRunTest, AReplyForAnotherSetIsIgnoredAndTheRequestStaysInFlight) {
+    auto e = load("budget: {evaluations: 5}\n");
+    auto run = make(e, "x");
+    const auto r = run.ask(1, 0.0).at(0);
+    auto foreign = answer(r, 5);
+    foreign.params.set("n_TF", foreign.params.get("n_TF") + 7);
+    EXPECT_EQ(run.tell(foreign, 1.0), ReplyOutcome::kOtherSet);
+    EXPECT_EQ(run.in_flight(), 1u);
+    EXPECT_TRUE(run.summary().evaluations.empty());
+    tuning::EvaluationRecord rec;
+    EXPECT_EQ(run.tell(answer(r, 3), 2.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.m, 3u);
+    EXPECT_DOUBLE_EQ(rec.wall_s, 2.0);
+}
+
+TEST_F(TuningRunTest, ADuplicateAnswerCountsOnce) {
+    auto e = load("budget: {evaluations: 5}\n");
+    auto run = make(e, "x");
+    const auto r = run.ask(1, 0.0).at(0);
+    EXPECT_EQ(run.tell(answer(r, 3), 1.0), ReplyOutcome::kAccepted);
+    EXPECT_EQ(run.tell(answer(r, 3), 1.5), ReplyOutcome::kNotInFlight);
+    EXPECT_EQ(run.summary().evaluations.size(), 1u);
+}
+
+TEST_F(TuningRunTest, ErrorsAndUnscorableRepliesAreFailedEvaluationsNotTheEnd) {
+    auto e = load("budget: {evaluations: 5}\n");
+    auto run = make(e, "x");
+    auto asked = run.ask(2, 0.0);
+    ASSERT_EQ(asked.size(), 2u);
+    tuning::Reply error;
+    error.request_id = asked[0].id;
+    error.ok = false;
+    error.error = "no worker serves this space";
+    tuning::EvaluationRecord rec;
+    ASSERT_EQ(run.tell(error, 1.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_TRUE(rec.failed);
+    EXPECT_EQ(rec.error, "no worker serves this space");
+    EXPECT_EQ(run.set_key(rec.params), run.set_key(asked[0].params));
+
+    auto broken = answer(asked[1], 0);
+    broken.pairs.clear();  // the scorer throws
+    ASSERT_EQ(run.tell(broken, 1.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_TRUE(rec.failed);
+    EXPECT_NE(rec.error.find("cannot score the reply: no per-pair results"), std::string::npos) << rec.error;
+    EXPECT_EQ(run.failed(), 2u);
+    EXPECT_EQ(run.summary().best, -1);
+    // The run goes on: the model proposes again.
+    EXPECT_EQ(run.ask(1, 2.0).size(), 1u);
+}
+
+TEST_F(TuningRunTest, BestIsTheHighestSuccessfulScore) {
+    auto e = load("budget: {evaluations: 5}\n");
+    auto run = make(e, "x");
+    const int matched[] = {1, 4, 2};
+    for (int m : matched) {
+        const auto r = run.ask(1, 0.0).at(0);
+        ASSERT_EQ(run.tell(answer(r, m), 1.0), ReplyOutcome::kAccepted);
+    }
+    ASSERT_EQ(run.summary().best, 1);
+    EXPECT_EQ(run.summary().evaluations[1].m, 4u);
+    EXPECT_TRUE(run.summary().predicted_best.has_value());
+}
+
+TEST_F(TuningRunTest, ResumeRestoresNumberingAndBestWithoutReaskingStartPoints) {
+    auto e = load("budget: {evaluations: 4}\n");
+    auto first = make(e, "a");
+    for (int m : {3, 1}) {
+        const auto r = first.ask(1, 0.0).at(0);
+        ASSERT_EQ(first.tell(answer(r, m), 1.0), ReplyOutcome::kAccepted);
+    }
+    // Through the file the restart reads.
+    tuning::RunDirectory files(dir_ / "run", e, {"core", "d", "dn", "m", "v", "now"});
+    files.write_results(first.summary());
+    const auto trials = experiment::read_trials_csv(files.trials_file(), e.space);
+    ASSERT_EQ(trials.size(), 2u);
+
+    auto second = make(e, "b");
+    second.resume(trials);
+    EXPECT_EQ(second.resumed(), 2u);
+    EXPECT_EQ(second.summary().best, 0);
+    EXPECT_EQ(second.summary().evaluations[0].origin, "resumed");
+    const auto r = second.ask(1, 0.0).at(0);
+    EXPECT_NE(r.origin, "start");
+    EXPECT_NE(second.set_key(r.params), second.set_key(e.start_points[0]));
+    tuning::EvaluationRecord rec;
+    ASSERT_EQ(second.tell(answer(r, 2), 1.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.number, 3);
+}
+
+TEST_F(TuningRunTest, BudgetsEndTheRunAndTheTimeBudgetWaitsForWhatIsInFlight) {
+    auto e = load("budget: {evaluations: 3, seconds: 10}\n");
+    auto run = make(e, "x");
+    EXPECT_FALSE(run.stop_reason(0.0, false));
+    EXPECT_EQ(*run.stop_reason(0.0, true), "stopped by signal");
+    const auto r = run.ask(1, 0.0).at(0);
+    EXPECT_FALSE(run.stop_reason(11.0, false)) << "a request is still in flight";
+    EXPECT_TRUE(run.ask(1, 11.0).empty()) << "no new request after the time budget";
+    ASSERT_EQ(run.tell(answer(r, 1), 12.0), ReplyOutcome::kAccepted);
+    EXPECT_EQ(*run.stop_reason(12.0, false), "time budget used");
+
+    auto count = make(load("budget: {evaluations: 2}\n"), "y");
+    const auto asked = count.ask(5, 0.0);
+    EXPECT_EQ(asked.size(), 2u) << "never more requests than the evaluation budget";
+    for (const auto& a : asked) count.tell(answer(a, 1), 1.0);
+    EXPECT_EQ(*count.stop_reason(1.0, false), "evaluation budget used");
+}
+
+TEST_F(TuningRunTest, UnansweredRequestsAreResentAfterResendSeconds) {
+    auto e = load("budget: {evaluations: 5}\n");
+    auto run = make(e, "x", 5.0);
+    const auto r = run.ask(1, 0.0).at(0);
+    EXPECT_TRUE(run.due_resends(4.0).empty());
+    const auto again = run.due_resends(6.0);
+    ASSERT_EQ(again.size(), 1u);
+    EXPECT_EQ(again[0].id, r.id);
+    EXPECT_TRUE(run.due_resends(8.0).empty()) << "re-sent at 6 s, next at 11 s";
+    EXPECT_EQ(run.due_resends(11.5).size(), 1u);
+    // The wall time of the evaluation counts from the first send.
+    tuning::EvaluationRecord rec;
+    run.tell(answer(r, 1), 12.0, &rec);
+    EXPECT_DOUBLE_EQ(rec.wall_s, 12.0);
+}
+
+TEST_F(TuningRunTest, BatchBoundsTheRequestsInFlight) {
+    auto free_slots = make(load("budget: {evaluations: 10}\n"), "x");
+    EXPECT_EQ(free_slots.ask(4, 0.0).size(), 4u) << "batch 0: one request per free worker slot";
+    EXPECT_EQ(free_slots.ask(4, 0.0).size(), 0u);
+    auto batch = make(load("budget: {evaluations: 10}\n", "optimizer: {seed: 3, initial_points: 2, batch: 3}\n"), "y");
+    EXPECT_EQ(batch.ask(8, 0.0).size(), 3u) << "a batch fixes the requests in flight";
+}
+
+}  // namespace
+}  // namespace maptune
