@@ -87,6 +87,7 @@ std::vector<Assignment> Scheduler::schedule(double now) {
         // Forget long-silent workers; they re-register with their next heartbeat.
         it = now - it->second.last_seen > 3 * options_.lease_s ? workers_.erase(it) : std::next(it);
     }
+    expire_unserved(now);
     std::vector<Assignment> out;
     // With every slot taken nothing can be assigned: skip the scan of the queue.
     if (queue_.empty() || free_slots() == 0) return out;
@@ -99,14 +100,7 @@ std::vector<Assignment> Scheduler::schedule(double now) {
         // The least loaded compatible live worker (ties: the one idle longest by id order).
         Worker* best = nullptr;
         for (auto& [id, w] : workers_) {
-            if (now - w.last_seen > options_.lease_s) continue;
-            if (w.info.matcher_id != job.spec.matcher_id || w.info.space_hash != job.spec.space_hash) {
-                continue;
-            }
-            if (!job.spec.matcher_version.empty() &&
-                w.info.matcher_version != job.spec.matcher_version) {
-                continue;
-            }
+            if (!compatible(w, job.spec, now)) continue;
             const int free = w.info.slots - static_cast<int>(w.tasks.size());
             if (free <= 0) continue;
             if (best == nullptr || w.tasks.size() < best->tasks.size()) best = &w;
@@ -133,6 +127,50 @@ std::vector<Assignment> Scheduler::schedule(double now) {
     return out;
 }
 
+bool Scheduler::compatible(const Worker& w, const JobSpec& spec, double now) const {
+    if (now - w.last_seen > options_.lease_s) return false;
+    if (w.info.matcher_id != spec.matcher_id || w.info.space_hash != spec.space_hash) return false;
+    return spec.matcher_version.empty() || w.info.matcher_version == spec.matcher_version;
+}
+
+void Scheduler::expire_unserved(double now) {
+    if (options_.unserved_timeout_s <= 0) return;
+    std::vector<std::string> expired;
+    for (auto& [key, job] : jobs_) {
+        bool served = false;
+        for (const auto& [id, w] : workers_) served = served || compatible(w, job.spec, now);
+        if (served) {
+            job.unserved_since.reset();
+        } else if (!job.unserved_since) {
+            job.unserved_since = now;
+        } else if (now - *job.unserved_since > options_.unserved_timeout_s) {
+            expired.push_back(key);
+        }
+    }
+    for (const auto& key : expired) {
+        Job& job = jobs_.at(key);
+        job.worker_failures = true;
+        job.failure = "no worker serves matcher '" + job.spec.matcher_id + "'" +
+                      (job.spec.matcher_version.empty() ? "" : " version " + job.spec.matcher_version) +
+                      " with design space " + job.spec.space_hash + " (waited " +
+                      std::to_string(static_cast<long>(now - *job.unserved_since)) + " s)";
+        std::vector<std::string> open;
+        for (const auto& id : job.shard_ids) {
+            if (!shards_.at(id).done) open.push_back(id);
+        }
+        for (const auto& id : open) {
+            Shard& shard = shards_.at(id);
+            for (std::size_t i = shard.begin; i < shard.end; ++i) {
+                job.pairs[i].matched = false;
+                job.pairs[i].status = store::PairStatus::kFailed;
+                job.pairs[i].reason = job.failure;
+            }
+            // The last one completes the job and erases it (and `job` with it).
+            if (auto done = finish_shard(shard, now)) completed_.push_back(std::move(*done));
+        }
+    }
+}
+
 std::optional<CompletedJob> Scheduler::finish_shard(Shard& shard, double now) {
     shard.done = true;
     if (auto w = workers_.find(shard.worker); w != workers_.end()) w->second.tasks.erase(shard.task_id);
@@ -140,7 +178,7 @@ std::optional<CompletedJob> Scheduler::finish_shard(Shard& shard, double now) {
     Job& job = jobs_.at(shard.job_key);
     if (--job.remaining > 0) return std::nullopt;
     CompletedJob done{shard.job_key, std::move(job.spec), std::move(job.requesters),
-                      std::move(job.pairs), job.started_at, now, job.worker_failures};
+                      std::move(job.pairs), job.started_at, now, job.worker_failures, job.failure};
     for (const auto& id : job.shard_ids) shards_.erase(id);
     jobs_.erase(done.job_key);
     return done;
@@ -190,6 +228,7 @@ std::optional<CompletedJob> Scheduler::fail(const std::string& task_id,
     }
     Job& job = jobs_.at(shard.job_key);
     job.worker_failures = true;
+    job.failure = "a shard failed " + std::to_string(shard.attempts) + " times: " + reason;
     for (std::size_t i = shard.begin; i < shard.end; ++i) {
         job.pairs[i].matched = false;
         job.pairs[i].status = store::PairStatus::kFailed;

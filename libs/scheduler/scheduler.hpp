@@ -31,6 +31,10 @@ struct SchedulerOptions {
     // A task that a worker's heartbeats still do not list this long after it was assigned never
     // arrived: it goes back to the queue (not counted as a failed attempt).
     double delivery_grace_s = 3.0;
+    // A job that no live worker can run (none with its matcher, version and design space) for
+    // this long completes as a failure naming what is missing, instead of waiting forever.
+    // <= 0: wait forever.
+    double unserved_timeout_s = 300.0;
 };
 
 struct WorkerInfo {
@@ -70,6 +74,7 @@ struct CompletedJob {
     // timeout, ...): its FAILED pairs say nothing about the parameters, so the job is an
     // answer for the requesters now but not an observation to keep.
     bool worker_failures = false;
+    std::string failure;  // why, when worker_failures: the last worker error or "no worker serves ..."
 };
 
 class Scheduler {
@@ -127,7 +132,9 @@ private:
         std::vector<store::PairRecord> pairs;
         std::size_t remaining = 0;
         bool worker_failures = false;
+        std::string failure;
         double started_at = 0;
+        std::optional<double> unserved_since;  // no compatible live worker since then
     };
     struct Worker {
         WorkerInfo info;
@@ -136,6 +143,9 @@ private:
     };
 
     std::optional<CompletedJob> finish_shard(Shard& shard, double now);
+    bool compatible(const Worker& w, const JobSpec& spec, double now) const;
+    // Ends jobs that waited unserved_timeout_s without a compatible worker (into completed_).
+    void expire_unserved(double now);
     void requeue(Shard& shard);
 
     SchedulerOptions options_;

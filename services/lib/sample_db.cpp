@@ -139,6 +139,14 @@ void SampleDb::reply_error(const v1::ObservationRequest& r, const std::string& e
     ++stats_.refused;
 }
 
+void SampleDb::reply_failure(const std::string& request_id, const std::string& error) {
+    v1::ObservationReply rep;
+    rep.request_id(request_id);
+    rep.ok(false);
+    rep.error(error);
+    replies_.write(rep);
+}
+
 void SampleDb::reply(const std::string& request_id, const store::Observation& o, bool from_store) {
     v1::ObservationReply rep;
     rep.request_id(request_id);
@@ -252,14 +260,22 @@ void SampleDb::finish(scheduler::CompletedJob job) {
     const bool transient = job.worker_failures || store::has_timeouts(o.pairs);
     if (transient && options_.log) {
         options_.log("answer for " + o.key.params_key + " not stored: " +
-                     (job.worker_failures ? "a shard failed on every attempt" : "pairs timed out"));
+                     (job.worker_failures ? job.failure : "pairs timed out"));
     }
     std::optional<store::Observation> stored;
     if (!transient) {
         store_.put(o);  // durable before anyone hears of it
         stored = store_.get(o.key);
     }
-    for (const auto& requester : job.requesters) reply(requester, stored ? *stored : o, false);
+    for (const auto& requester : job.requesters) {
+        // FAILED pairs of a broken worker say nothing about the parameters: scored, they would
+        // tell the optimizer a p that is not the matcher's. The requester hears the failure.
+        if (job.worker_failures) {
+            reply_failure(requester, "evaluation failed: " + job.failure);
+        } else {
+            reply(requester, stored ? *stored : o, false);
+        }
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.evaluated;
     ++(transient ? stats_.not_stored : stats_.stored);

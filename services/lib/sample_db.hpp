@@ -62,6 +62,8 @@ private:
     void finish(scheduler::CompletedJob job);
     void reply_error(const msg::v1::ObservationRequest& r, const std::string& error);
     void reply(const std::string& request_id, const store::Observation& o, bool from_store);
+    // An error answer to one requester of a job (the job could not be evaluated).
+    void reply_failure(const std::string& request_id, const std::string& error);
     std::shared_ptr<const dataset::Dataset> dataset(const std::string& id, std::string* error);
 
     DatasetMirror& mirror_;

@@ -1,7 +1,8 @@
 // sample_db in-process against a scripted worker on a private DDS domain: a broken result
 // (NaN transform) is a failed attempt that runs again, and answers with timeouts reach the
 // requester but are not kept — a later request runs the matcher again, and only then is
-// the observation stored.
+// the observation stored; a shard that fails on every attempt and a request no worker can
+// serve are answered with an error (never FAILED pairs scored as the matcher's answer).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -51,8 +52,9 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
     const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
 
     // What the worker answers, task by task: NaN, then good; timeouts, then good.
-    enum class Answer { kNan, kGood, kTimeout };
-    const std::vector<Answer> script{Answer::kNan, Answer::kGood, Answer::kTimeout, Answer::kGood};
+    enum class Answer { kNan, kGood, kTimeout, kFail };
+    const std::vector<Answer> script{Answer::kNan,  Answer::kGood, Answer::kTimeout, Answer::kGood,
+                                     Answer::kFail, Answer::kFail, Answer::kFail};
     std::vector<v1::EvaluationTask> tasks_seen;
     std::vector<v1::ObservationReply> replies;
     std::mutex m;
@@ -65,6 +67,7 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         options.spaces = {space};
         options.scheduler.shard_size = 0;
         options.scheduler.lease_s = 30;
+        options.scheduler.unserved_timeout_s = 1;
         std::vector<std::string> log;  // written on sample_db's thread, read after it stopped
         options.log = [&](const std::string& line) { log.push_back(line); };
         services::SampleDb db(db_p, mirror, options);
@@ -132,19 +135,23 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
                 v1::TaskResult res;
                 res.task_id(t->task_id());
                 res.worker_id("w1");
-                res.ok(true);
-                res.pairs(dds::to_msg(pairs));
+                res.ok(a != Answer::kFail);
+                if (a == Answer::kFail) {
+                    res.error("cannot load submap run00/submap001");
+                } else {
+                    res.pairs(dds::to_msg(pairs));
+                }
                 results.write(res);
             }
         });
 
-        auto ask = [&](const std::string& id, double r_n) {
+        auto ask = [&](const std::string& id, double r_n, const std::string& matcher = "lru_matcher") {
             v1::ObservationRequest req;
             req.request_id(id);
             req.requester("test");
             req.dataset_id(ds.manifest().id);
             req.view("complete");
-            req.matcher_id("lru_matcher");
+            req.matcher_id(matcher);
             req.matcher_version("test");
             req.space_hash(space.hash());
             req.params(dds::to_msg(params::ParameterSet{{"r_N", r_n}}));
@@ -190,9 +197,25 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         ASSERT_TRUE(r4.has_value());
         EXPECT_TRUE(r4->from_store());
         EXPECT_EQ(tasks_seen.size(), 4u);
+        // A shard that fails on every attempt: the requester hears the failure (its FAILED pairs
+        // are not the matcher's answer about these parameters) and nothing is stored.
+        ask("r5", 0.7);
+        const auto r5 = reply_to("r5");
+        ASSERT_TRUE(r5.has_value());
+        EXPECT_FALSE(r5->ok());
+        EXPECT_NE(r5->error().find("a shard failed 3 times: cannot load submap run00/submap001"), std::string::npos)
+            << r5->error();
+        EXPECT_EQ(tasks_seen.size(), 7u);
+        // A matcher no worker serves: an error after the unserved timeout, not a wait forever.
+        ask("r6", 0.9, "nobodys_matcher");
+        const auto r6 = reply_to("r6");
+        ASSERT_TRUE(r6.has_value());
+        EXPECT_FALSE(r6->ok());
+        EXPECT_NE(r6->error().find("no worker serves matcher 'nobodys_matcher'"), std::string::npos) << r6->error();
+        EXPECT_EQ(tasks_seen.size(), 7u);
         const auto stats = db.stats();
         EXPECT_EQ(stats.stored, 2u);
-        EXPECT_EQ(stats.not_stored, 1u);
+        EXPECT_EQ(stats.not_stored, 3u);
         // Both faults were said (every reply is out, so the loop has written its lines).
         int invalid = 0, not_stored = 0;
         for (const auto& line : log) {

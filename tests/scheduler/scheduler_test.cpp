@@ -346,3 +346,66 @@ TEST(Scheduler, TaskMissingFromAWorkersListAfterTheGraceIsQueuedAgain) {
 
 }  // namespace
 }  // namespace maptune::scheduler
+
+namespace maptune::scheduler {
+namespace {
+
+// A request for a matcher or space no worker serves used to wait forever (issue 12): after
+// unserved_timeout_s without a compatible live worker the job completes as a failure that says
+// what is missing; a compatible worker in time restarts the clock.
+TEST(Scheduler, AJobNoWorkerCanServeFailsAfterTheTimeoutNamingWhatIsMissing) {
+    SchedulerOptions o;
+    o.unserved_timeout_s = 60;
+    o.shard_size = 2;
+    Scheduler s(o);
+    s.heartbeat(worker("w-other-space", 1, "S2"), 0);
+    ASSERT_TRUE(s.submit("k", job(5), "opt", 0));
+    EXPECT_TRUE(s.schedule(0).empty());
+    EXPECT_TRUE(s.schedule(59).empty());
+    EXPECT_TRUE(s.take_completed().empty()) << "still within the timeout";
+    s.heartbeat(worker("w-other-space", 1, "S2"), 61);
+    EXPECT_TRUE(s.schedule(61).empty());
+    const auto done = s.take_completed();
+    ASSERT_EQ(done.size(), 1u);
+    EXPECT_EQ(done[0].job_key, "k");
+    EXPECT_TRUE(done[0].worker_failures);
+    EXPECT_NE(done[0].failure.find("no worker serves matcher 'lru_matcher' version 1 with design space S1"),
+              std::string::npos)
+        << done[0].failure;
+    ASSERT_EQ(done[0].pairs.size(), 5u);
+    for (const auto& p : done[0].pairs) EXPECT_EQ(p.status, store::PairStatus::kFailed);
+    EXPECT_EQ(s.jobs(), 0u);
+    EXPECT_EQ(s.queued_shards(), 0u);
+}
+
+TEST(Scheduler, ACompatibleWorkerRestartsTheUnservedClock) {
+    SchedulerOptions o;
+    o.unserved_timeout_s = 60;
+    o.lease_s = 10;
+    Scheduler s(o);
+    ASSERT_TRUE(s.submit("k", job(2), "opt", 0));
+    s.schedule(0);
+    s.heartbeat(worker("w1"), 50);  // appears in time, runs the shard, then goes silent
+    auto a = s.schedule(50);
+    ASSERT_EQ(a.size(), 1u);
+    // Silent past its lease at 61: the shard is queued again and the clock starts at 61 ...
+    EXPECT_TRUE(s.schedule(61).empty());
+    EXPECT_TRUE(s.schedule(120).empty());
+    EXPECT_TRUE(s.take_completed().empty()) << "59 s without a worker is within the timeout";
+    s.schedule(122);
+    ASSERT_EQ(s.take_completed().size(), 1u);
+}
+
+TEST(Scheduler, ZeroUnservedTimeoutWaitsForever) {
+    SchedulerOptions o;
+    o.unserved_timeout_s = 0;
+    Scheduler s(o);
+    ASSERT_TRUE(s.submit("k", job(2), "opt", 0));
+    s.schedule(0);
+    s.schedule(1e6);
+    EXPECT_TRUE(s.take_completed().empty());
+    EXPECT_EQ(s.jobs(), 1u);
+}
+
+}  // namespace
+}  // namespace maptune::scheduler
