@@ -412,6 +412,10 @@ Submap Dataset::load_submap(int run, int index) const {
     }
     out.T_world_submap_gt = r.gt[index].T;
     out.T_world_submap_odom = r.odometry[index].T;
+    std::uint64_t h = fnv1a(read_file(dir_ / s.cloud));
+    h = fnv1a(read_file(dir_ / s.obstacles), h);
+    if (!s.octomap.empty()) h = fnv1a(read_file(dir_ / s.octomap), h);
+    out.content_hash = h;
     return out;
 }
 

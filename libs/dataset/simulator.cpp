@@ -84,6 +84,8 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"world_size", r(c.world_size, 2, 1000)},
         {"rocks", i(c.rocks, 0, 100000)},
         {"craters", i(c.craters, 0, 100000)},
+        {"rock_colour_variation", r(c.rock_colour_variation, 0, 1)},
+        {"floor_tile_contrast", r(c.floor_tile_contrast, 0, 1)},
         {"image_width", i(c.image_width, 8, 4096)},
         {"image_height", i(c.image_height, 8, 4096)},
         {"hfov_deg", r(c.hfov_deg, 1, 170)},
@@ -257,7 +259,9 @@ struct Disc {
 
 class World {
 public:
-    World(const SimConfig& c, std::uint64_t seed) : lab_(c.world == "lab"), seed_(seed) {
+    World(const SimConfig& c, std::uint64_t seed)
+        : lab_(c.world == "lab"), seed_(seed), rock_var_(static_cast<float>(c.rock_colour_variation)),
+          floor_contrast_(static_cast<float>(c.floor_tile_contrast)) {
         if (c.world != "lab" && c.world != "moon") {
             throw std::invalid_argument("unknown world '" + c.world + "' (lab|moon)");
         }
@@ -362,7 +366,7 @@ public:
                     a = {n, n * 0.97f, n * 0.92f};
                 }
             } else if (m >= kRock) {
-                const float tint = hash3(m, 0, 0, s + 21);
+                const float tint = 0.5f + rock_var_ * (hash3(m, 0, 0, s + 21) - 0.5f);
                 const float n = 0.6f + 0.4f * fbm2(x * 9 + z * 3, y * 9 - z * 3, s + 22 + m, 3);
                 a = {n * (0.55f + 0.25f * tint), n * (0.42f + 0.1f * tint), n * (0.32f - 0.1f * tint)};
             } else {
@@ -372,7 +376,9 @@ public:
                 const float tile = hash3(static_cast<std::int64_t>(std::floor(x * 2)),
                                          static_cast<std::int64_t>(std::floor(y * 2)), 1, s + 31);
                 const float n = 0.7f + 0.3f * value_noise3(x * 20, y * 20, 0, s + 32);
-                const float base = seam ? 0.25f : 0.45f + 0.15f * tile;
+                const float tiled = 0.45f + 0.15f * tile;
+                const float base = (1 - floor_contrast_) * 0.525f +
+                                   floor_contrast_ * (seam ? 0.25f : tiled);
                 a = {base * n * 0.9f, base * n * 0.95f, base * n * 1.1f};
             }
         } else {
@@ -565,6 +571,7 @@ private:
 
     bool lab_;
     std::uint64_t seed_;
+    float rock_var_ = 1, floor_contrast_ = 1;
     double size_ = 0, res_ = 0, x0_ = 0, y0_ = 0;
     int nx_ = 0, ny_ = 0;
     std::vector<float> h_, ground_, bmax_;

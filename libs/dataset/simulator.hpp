@@ -19,6 +19,11 @@ struct SimConfig {
     double world_size = 8.0;        // side of the square world [m]
     int rocks = 0;                  // 0 = world default (lab: 15..30, moon: ~90)
     int craters = 60;               // moon only
+    // Lab appearance. Per-rock colour: 1 = each rock its own brown/red tint, 0 = all rocks of
+    // one material (artificial rocks cast from one mix). Floor: 1 = carpet tiles with per-tile
+    // tint and dark seams, 0 = a uniform floor (speckle only).
+    double rock_colour_variation = 1.0;
+    double floor_tile_contrast = 1.0;
 
     // Camera: a stereo pair (baseline_m) on a pan-tilt unit at camera_height_m. Rays are
     // cast on a subsampled image; the noise uses the real camera's focal length.

@@ -24,6 +24,10 @@ struct Submap {
     std::vector<ColoredPoint> cloud;       // voxel-filtered, submap frame
     std::vector<Eigen::Vector3f> obstacles;  // keypoint candidates (SPEC §3 step 3), submap frame
     std::shared_ptr<const octomap::OcTree> octree;  // free/occupied/unknown; may be null
+    // FNV-1a 64 over the bytes of the cloud, obstacle and OctoMap files it was loaded from
+    // (Dataset::load_submap); 0 for a submap built in memory. Caches key on it: a submap
+    // whose files changed under the same id never gets the features of the old one.
+    std::uint64_t content_hash = 0;
     Eigen::Isometry3d T_world_submap_gt = Eigen::Isometry3d::Identity();
     Eigen::Isometry3d T_world_submap_odom = Eigen::Isometry3d::Identity();
 };

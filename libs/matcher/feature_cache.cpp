@@ -22,8 +22,24 @@ std::string feature_key(const dataset::Submap& submap, const MatcherParams& para
     const double q = quantum > 0 ? quantum : 1e-9;
     auto k = [&](double v) { return std::llround(v / q); };
     std::ostringstream os;
-    os << submap.id << '#' << submap.cloud.size() << ',' << submap.obstacles.size() << ','
-       << (submap.octree ? 1 : 0) << '|' << k(params.r_N) << ',' << k(params.v_K) << ','
+    // The content, not only the id: a submap changed under the same id is another entry.
+    std::uint64_t content = submap.content_hash;
+    if (content == 0) {  // built in memory: the cloud and obstacle coordinates themselves
+        content = 1469598103934665603ull;
+        auto mix = [&](const void* data, std::size_t n) {
+            const auto* b = static_cast<const unsigned char*>(data);
+            for (std::size_t i = 0; i < n; ++i) content = (content ^ b[i]) * 1099511628211ull;
+        };
+        for (const auto& p : submap.cloud) {
+            const float xyz[3] = {p.x, p.y, p.z};
+            const unsigned char rgb[3] = {p.r, p.g, p.b};
+            mix(xyz, sizeof xyz);
+            mix(rgb, sizeof rgb);
+        }
+        for (const auto& o : submap.obstacles) mix(o.data(), 3 * sizeof(float));
+    }
+    os << submap.id << '#' << std::hex << content << std::dec << ',' << submap.cloud.size() << ','
+       << submap.obstacles.size() << ',' << (submap.octree ? 1 : 0) << '|' << k(params.r_N) << ',' << k(params.v_K) << ','
        << k(params.t_K) << ',' << k(params.r_D) << ',' << k(params.r_LRF) << '@' << q << '|'
        << feature_settings_fingerprint(settings);
     return os.str();

@@ -1,5 +1,7 @@
 #include "worker_backend.hpp"
 
+#include <octomap/OcTree.h>
+
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -29,20 +31,31 @@ std::shared_ptr<const dataset::Dataset> DatasetCache::get(const std::string& id,
 // ---- LruBackend ----
 
 LruBackend::LruBackend(DatasetMirror& mirror, params::ParameterSpace space,
-                       matcher::MatcherSettings settings, matcher::FeatureCacheOptions cache)
+                       matcher::MatcherSettings settings, matcher::FeatureCacheOptions cache,
+                       std::size_t submap_cache_bytes)
     : datasets_(mirror),
       space_(std::move(space)),
       matcher_(settings, cache),
-      version_(evaluation::matcher_version(settings)) {}
+      version_(evaluation::matcher_version(settings)),
+      submaps_(submap_cache_bytes, 1u << 20) {}
 
-const dataset::Submap* LruBackend::submap(const dataset::Dataset& ds, const std::string& id,
-                                          std::string* error) {
+std::size_t LruBackend::LoadedSubmap::bytes() const {
+    return sizeof(*this) + submap.cloud.capacity() * sizeof(dataset::ColoredPoint) +
+           submap.obstacles.capacity() * sizeof(Eigen::Vector3f) +
+           (submap.octree ? submap.octree->memoryUsage() : 0);
+}
+
+std::shared_ptr<const LruBackend::LoadedSubmap> LruBackend::submap(const dataset::Dataset& ds, const std::string& id,
+                                                                   std::string* error) {
     const std::string key = ds.manifest().id + "/" + id;
-    if (auto it = submaps_.find(key); it != submaps_.end()) return it->second.get();
-    if (!datasets_.mirror().ensure_submaps(ds, {id}, 120.0, error)) return nullptr;
     try {
-        auto s = std::make_unique<dataset::Submap>(ds.load_submap(id));
-        return (submaps_[key] = std::move(s)).get();
+        return submaps_.get_or_compute(key, [&]() -> std::shared_ptr<const LoadedSubmap> {
+            std::string fetch_error;
+            if (!datasets_.mirror().ensure_submaps(ds, {id}, 120.0, &fetch_error)) {
+                throw std::runtime_error(fetch_error);
+            }
+            return std::make_shared<const LoadedSubmap>(LoadedSubmap{ds.load_submap(id)});
+        });
     } catch (const std::exception& e) {
         *error = e.what();
         return nullptr;
@@ -59,13 +72,15 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
     }
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<const dataset::Submap*> submaps;
+    std::vector<std::shared_ptr<const LoadedSubmap>> held;  // alive for the task, evicted or not
     std::map<std::string, int> index;
     std::vector<std::pair<int, int>> pairs;
     auto index_of = [&](const std::string& id) -> int {
         if (auto it = index.find(id); it != index.end()) return it->second;
-        const dataset::Submap* s = submap(*ds, id, &error);
+        auto s = submap(*ds, id, &error);
         if (s == nullptr) return -1;
-        submaps.push_back(s);
+        held.push_back(s);
+        submaps.push_back(&s->submap);
         return index[id] = static_cast<int>(submaps.size()) - 1;
     };
     for (const auto& pid : task.pair_ids) {

@@ -3,12 +3,14 @@
 // or by speaking the DDS contract of docs/plugin-matcher.md in any language.
 
 #include <map>
+
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include "dataset_mirror.hpp"
+#include "matcher/lru_cache.hpp"
 #include "evaluation/evaluation.hpp"
 #include "params/parameter_space.hpp"
 #include "store/observation_store.hpp"
@@ -58,22 +60,32 @@ private:
 // The reference PCL pipeline (libs/matcher) on submaps fetched through the mirror.
 class LruBackend : public WorkerBackend {
 public:
+    // Loaded submaps are kept in an LRU cache of at most `submap_cache_bytes` (a worker on a
+    // large dataset must not hold every submap it ever ran).
+    static constexpr std::size_t kDefaultSubmapCacheBytes = std::size_t{1} << 30;
     LruBackend(DatasetMirror& mirror, params::ParameterSpace space,
-               matcher::MatcherSettings settings = {}, matcher::FeatureCacheOptions cache = {});
+               matcher::MatcherSettings settings = {}, matcher::FeatureCacheOptions cache = {},
+               std::size_t submap_cache_bytes = kDefaultSubmapCacheBytes);
     std::string matcher_id() const override { return evaluation::kMatcherId; }
     std::string matcher_version() const override { return version_; }
     const params::ParameterSpace& space() const override { return space_; }
     TaskOutcome run(const TaskSpec& task) override;
 
+    matcher::CacheStats submap_cache_stats() const { return submaps_.stats(); }
+
 private:
-    const dataset::Submap* submap(const dataset::Dataset& ds, const std::string& id, std::string* error);
+    struct LoadedSubmap {
+        dataset::Submap submap;
+        std::size_t bytes() const;
+    };
+    std::shared_ptr<const LoadedSubmap> submap(const dataset::Dataset& ds, const std::string& id, std::string* error);
 
     DatasetCache datasets_;
     params::ParameterSpace space_;
     matcher::Matcher matcher_;
     std::string version_;
     std::mutex mutex_;  // one task at a time: the matcher parallelizes inside
-    std::map<std::string, std::unique_ptr<dataset::Submap>> submaps_;
+    matcher::LruCache<LoadedSubmap> submaps_;
 };
 
 // A test objective with the matcher's contract and no PCL: estimates are the ground truth

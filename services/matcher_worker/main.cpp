@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
     app.add_option("--slots", options.slots, "tasks run at once, 1..64 (default: 1)")->check(CLI::Range(1, 64));
     app.add_option("--threads", settings.threads, "matcher threads, 0 = all cores (default: 0)");
     app.add_option("--cache", cache, "directory for fetched dataset files (default: /tmp/maptune-cache)");
+    double submap_cache_mb = static_cast<double>(LruBackend::kDefaultSubmapCacheBytes >> 20);
+    app.add_option("--submap-cache-mb", submap_cache_mb, "loaded submaps kept in memory, MB (default: 1024)")
+        ->check(CLI::Range(1.0, 1e7));
     app.add_option("--dataset-dir", local_dataset, "read this dataset directory directly instead of fetching it");
     app.add_flag("--analytic", analytic, "run the analytic test objective instead of the PCL matcher");
     app.add_option("--delay", analytic_options.delay_per_pair_s, "analytic: seconds per pair (default: 0)");
@@ -41,7 +44,8 @@ int main(int argc, char** argv) {
         if (analytic) {
             backend = std::make_unique<AnalyticBackend>(mirror, space, analytic_options);
         } else {
-            backend = std::make_unique<LruBackend>(mirror, space, settings);
+            backend = std::make_unique<LruBackend>(mirror, space, settings, maptune::matcher::FeatureCacheOptions{},
+                                                   static_cast<std::size_t>(submap_cache_mb * 1024 * 1024));
         }
         MatcherWorker worker(participant, *backend, options);
         std::cout << "worker " << worker.id() << " (" << backend->matcher_id() << " "

@@ -222,6 +222,10 @@ TEST(DatasetTest, LoadSubmapMatchesManifestAndGroundTruthAligns) {
     EXPECT_EQ(a.id, "run00/submap000");
     EXPECT_EQ(a.cloud.size(), d.manifest().runs[0].submaps[0].points);
     EXPECT_EQ(a.obstacles.size(), d.manifest().runs[0].submaps[0].obstacle_points);
+    // The content hash of its files (what feature caches key on): stable, and per submap.
+    EXPECT_NE(a.content_hash, 0u);
+    EXPECT_NE(a.content_hash, b.content_hash);
+    EXPECT_EQ(a.content_hash, d.load_submap(0, 0).content_hash);
     ASSERT_TRUE(a.octree);
     // The OctoMap knows free space (in front of the camera) and occupied space (surfaces),
     // and nothing far away.

@@ -53,5 +53,27 @@ TEST(FeatureKey, PairStageParametersDoNotChangeTheKey) {
     EXPECT_DOUBLE_EQ(quantize_feature_params(q, 0.01).r_D, 0.21);
 }
 
+// Issue 12: the cache keyed on submap id and point counts, so a submap whose files changed
+// under the same id (same sizes) got the old submap's features.
+TEST(FeatureKey, ContentChangedUnderTheSameIdIsAnotherKey) {
+    dataset::Submap s;
+    s.id = "run00/submap000";
+    s.cloud.resize(3);
+    s.obstacles.resize(2, Eigen::Vector3f::Zero());
+    const MatcherParams p;
+    const std::string before = feature_key(s, p, {}, 0.01);
+    EXPECT_EQ(before, feature_key(s, p, {}, 0.01));
+    s.cloud[1].x = 0.5f;  // same id, same sizes, other content
+    EXPECT_NE(before, feature_key(s, p, {}, 0.01));
+    s.cloud[1].x = 0.f;
+    s.obstacles[0].z() = 0.1f;
+    EXPECT_NE(before, feature_key(s, p, {}, 0.01));
+    // Loaded submaps carry the hash of their files, which decides alone.
+    dataset::Submap a = s, b = s;
+    a.content_hash = 1;
+    b.content_hash = 2;
+    EXPECT_NE(feature_key(a, p, {}, 0.01), feature_key(b, p, {}, 0.01));
+}
+
 }  // namespace
 }  // namespace maptune::matcher
