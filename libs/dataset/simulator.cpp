@@ -86,6 +86,7 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"craters", i(c.craters, 0, 100000)},
         {"rock_colour_variation", r(c.rock_colour_variation, 0, 1)},
         {"floor_tile_contrast", r(c.floor_tile_contrast, 0, 1)},
+        {"rock_facets", i(c.rock_facets, 0, 64)},
         {"image_width", i(c.image_width, 8, 4096)},
         {"image_height", i(c.image_height, 8, 4096)},
         {"hfov_deg", r(c.hfov_deg, 1, 170)},
@@ -261,7 +262,7 @@ class World {
 public:
     World(const SimConfig& c, std::uint64_t seed)
         : lab_(c.world == "lab"), seed_(seed), rock_var_(static_cast<float>(c.rock_colour_variation)),
-          floor_contrast_(static_cast<float>(c.floor_tile_contrast)) {
+          floor_contrast_(static_cast<float>(c.floor_tile_contrast)), facets_(c.rock_facets) {
         if (c.world != "lab" && c.world != "moon") {
             throw std::invalid_argument("unknown world '" + c.world + "' (lab|moon)");
         }
@@ -366,7 +367,8 @@ public:
                     a = {n, n * 0.97f, n * 0.92f};
                 }
             } else if (m >= kRock) {
-                const float tint = 0.5f + rock_var_ * (hash3(m, 0, 0, s + 21) - 0.5f);
+                const float h = hash3(m, 0, 0, s + 21);
+                const float tint = rock_var_ == 1.f ? h : 0.5f + rock_var_ * (h - 0.5f);  // 1: bit-exact as before
                 const float n = 0.6f + 0.4f * fbm2(x * 9 + z * 3, y * 9 - z * 3, s + 22 + m, 3);
                 a = {n * (0.55f + 0.25f * tint), n * (0.42f + 0.1f * tint), n * (0.32f - 0.1f * tint)};
             } else {
@@ -420,7 +422,31 @@ public:
 private:
     void stamp(double cx, double cy, double rx, double ry, double rot, double height_m,
                std::uint16_t mat, std::uint32_t bump_seed, bool additive) {
-        const double r = std::max(rx, ry) * 1.2;
+        // Faceted rocks: a convex polyhedron of planes tangent to the half-ellipsoid (rx, ry,
+        // height) — side facets all around, shoulder facets above them and a tilted top —
+        // so that a rock has flat faces and sharp edges as broken and cast rocks do. Their
+        // directions come from the rock's own stream, so the rest of the world is unchanged.
+        struct Plane {
+            double nx, ny, nz, s;
+        };
+        std::vector<Plane> planes;
+        if (facets_ > 0) {
+            Rng frng(mix(seed_, 0x46414345ull + bump_seed));
+            const double az0 = frng.uniform(0, 2 * M_PI);
+            auto add = [&](double az, double el) {
+                const double nx = std::cos(el) * std::cos(az), ny = std::cos(el) * std::sin(az), nz = std::sin(el);
+                planes.push_back({nx, ny, nz, std::sqrt(rx * rx * nx * nx + ry * ry * ny * ny + height_m * height_m * nz * nz)});
+            };
+            for (int k = 0; k < facets_; ++k) {
+                add(az0 + 2 * M_PI * (k + frng.uniform(-0.3, 0.3)) / facets_, frng.uniform(0.25, 0.6));
+            }
+            const int shoulders = facets_ / 2 + 1;
+            for (int k = 0; k < shoulders; ++k) {
+                add(az0 + 2 * M_PI * (k + 0.5 + frng.uniform(-0.3, 0.3)) / shoulders, frng.uniform(0.8, 1.2));
+            }
+            add(frng.uniform(0, 2 * M_PI), M_PI / 2 - frng.uniform(0.05, 0.3));
+        }
+        const double r = std::max(rx, ry) * (planes.empty() ? 1.2 : 1.6);
         const int i0 = std::max(0, static_cast<int>((cx - r - x0_) / res_));
         const int i1 = std::min(nx_ - 1, static_cast<int>((cx + r - x0_) / res_) + 1);
         const int j0 = std::max(0, static_cast<int>((cy - r - y0_) / res_));
@@ -429,11 +455,21 @@ private:
         for (int j = j0; j <= j1; ++j) {
             for (int i = i0; i <= i1; ++i) {
                 const double x = x0_ + i * res_ - cx, y = y0_ + j * res_ - cy;
-                const double u = (c * x + s * y) / rx, v = (-s * x + c * y) / ry;
-                const double q = 1 - u * u - v * v;
-                if (q <= 0) continue;
-                const float bump = 0.85f + 0.3f * value_noise3(static_cast<float>(x * 8), static_cast<float>(y * 8), 0, bump_seed);
-                const float hr = static_cast<float>(height_m * std::sqrt(q)) * bump;
+                float hr = 0;
+                if (planes.empty()) {
+                    const double u = (c * x + s * y) / rx, v = (-s * x + c * y) / ry;
+                    const double q = 1 - u * u - v * v;
+                    if (q <= 0) continue;
+                    const float bump = 0.85f + 0.3f * value_noise3(static_cast<float>(x * 8), static_cast<float>(y * 8), 0, bump_seed);
+                    hr = static_cast<float>(height_m * std::sqrt(q)) * bump;
+                } else {
+                    const double u = c * x + s * y, v = -s * x + c * y;  // metres, rock frame
+                    double h = height_m * 1.5;
+                    for (const auto& pl : planes) h = std::min(h, (pl.s - pl.nx * u - pl.ny * v) / pl.nz);
+                    if (h <= 0) continue;
+                    // Fine surface texture only: faces stay flat at the LRF scale.
+                    hr = static_cast<float>(h) + 0.004f * (value_noise3(static_cast<float>(x * 25), static_cast<float>(y * 25), 0, bump_seed) - 0.5f);
+                }
                 float& cell = h_[static_cast<std::size_t>(j) * nx_ + i];
                 const float base = additive ? ground_[static_cast<std::size_t>(j) * nx_ + i] : 0.f;
                 if (base + hr > cell) {
@@ -572,6 +608,7 @@ private:
     bool lab_;
     std::uint64_t seed_;
     float rock_var_ = 1, floor_contrast_ = 1;
+    int facets_ = 0;
     double size_ = 0, res_ = 0, x0_ = 0, y0_ = 0;
     int nx_ = 0, ny_ = 0;
     std::vector<float> h_, ground_, bmax_;

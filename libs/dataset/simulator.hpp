@@ -24,6 +24,9 @@ struct SimConfig {
     // tint and dark seams, 0 = a uniform floor (speckle only).
     double rock_colour_variation = 1.0;
     double floor_tile_contrast = 1.0;
+    // Rock shape (both worlds): 0 = smooth bumpy caps; N >= 3 = angular rocks, convex polyhedra
+    // of N side facets, N/2 + 1 shoulder facets and a top around the same half-ellipsoid.
+    int rock_facets = 0;
 
     // Camera: a stereo pair (baseline_m) on a pan-tilt unit at camera_height_m. Rays are
     // cast on a subsampled image; the noise uses the real camera's focal length.

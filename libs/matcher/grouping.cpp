@@ -31,8 +31,10 @@ HoughGroups hough_groups(const SubmapFeatures& a, const SubmapFeatures& b,
               static_cast<std::int64_t>(std::floor(vote.z() * inv))}]
             .push_back(static_cast<int>(c));
     }
-    for (auto& [key, members] : bins)
+    for (auto& [key, members] : bins) {
+        out.largest_bin = std::max(out.largest_bin, static_cast<int>(members.size()));
         if (static_cast<int>(members.size()) >= n_tf) out.groups.push_back(std::move(members));
+    }
     std::stable_sort(out.groups.begin(), out.groups.end(),
                      [](const auto& l, const auto& r) { return l.size() > r.size(); });
     return out;

@@ -14,6 +14,7 @@ namespace maptune::matcher {
 struct HoughGroups {
     // Groups (indices into the correspondence list), largest first; ties by bin key.
     std::vector<std::vector<int>> groups;
+    int largest_bin = 0;  // votes in the fullest bin, whether or not it reached n_tf (diagnostics)
 };
 
 // Votes as PCL's Hough3DGrouping without interpolation: b is the model, a the scene. Each

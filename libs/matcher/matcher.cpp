@@ -112,7 +112,11 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     const auto hough = hough_groups(a, b, corrs, params.v_TF, params.n_TF);
     r.groups = static_cast<int>(hough.groups.size());
     if (hough.groups.empty())
-        return finish(r, MatchStatus::kNoMatch, "no Hough bin with n_TF votes", t0);
+        return finish(r, MatchStatus::kNoMatch,
+                      "no Hough bin with n_TF votes (fullest " + std::to_string(hough.largest_bin) + " of " +
+                          std::to_string(r.correspondences) + " correspondences; keypoints " +
+                          std::to_string(r.keypoints_a) + "/" + std::to_string(r.keypoints_b) + ")",
+                      t0);
     const double line_thr = settings.line_threshold_m > 0 ? settings.line_threshold_m : params.v_K;
     const std::vector<int>* chosen = nullptr;
     for (const auto& g : hough.groups) {

@@ -119,6 +119,15 @@ std::string set_matcher_setting(MatcherSettings& s, const std::string& key, cons
              else return "matcher setting " + key + ": '" + value + "' is not v_K or v_TF";
              return "";
          }},
+        {"lrf_method", [&]() -> std::string {
+             if (value == "shot") s.lrf_method = LrfMethod::kShot;
+             else if (value == "board") s.lrf_method = LrfMethod::kBoard;
+             else return "matcher setting " + key + ": '" + value + "' is not shot or board";
+             return "";
+         }},
+        {"viewpoint_x", [&] { return real(s.viewpoint_x, -1e6, 1e6); }},
+        {"viewpoint_y", [&] { return real(s.viewpoint_y, -1e6, 1e6); }},
+        {"viewpoint_z", [&] { return real(s.viewpoint_z, -1e6, 1e6); }},
         {"min_points", [&] { return integer(s.min_points, 0, 1e9); }},
         {"min_keypoints", [&] { return integer(s.min_keypoints, 0, 1e9); }},
         {"seed", [&] {
