@@ -478,6 +478,26 @@ void Optimizer::add_observation(const Observation& observation) {
     observations_.push_back(std::move(o));
 }
 
+void Optimizer::replay(const std::vector<Observation>& history, const std::vector<std::string>& origins) {
+    observations_.clear();
+    observed_points_.clear();
+    pending_.clear();
+    design_index_ = 0;
+    hp_ = gp::Hyperparameters::defaults(space_.dim());
+    last_fit_n_ = 0;
+    for (std::size_t k = 0; k < history.size(); ++k) {
+        const std::string origin = k < origins.size() ? origins[k] : "model";
+        if (origin == "initial") {
+            next_design_point();  // advances past what this proposal skipped, as then
+        } else if (origin != "start") {
+            const bool any_success = std::any_of(observations_.begin(), observations_.end(),
+                                                 [](const Observation& o) { return !o.failed; });
+            if (any_success) build_model();  // fits when the refit rule said so then
+        }
+        add_observation(history[k]);
+    }
+}
+
 std::optional<Observation> Optimizer::best() const {
     std::optional<Observation> out;
     for (const Observation& o : observations_) {

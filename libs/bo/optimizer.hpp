@@ -99,6 +99,13 @@ class Optimizer {
     bool cancel(std::uint64_t id);
     // An observation made elsewhere (the sample database already had it).
     void add_observation(const Observation& observation);
+    // Rebuilds, from a run's observations in order and where each proposal came from
+    // ("start", "initial", "model"; anything else counts as "model"), the state that run had
+    // when it proposed one set at a time: the design sequence's position and the warm-started
+    // hyperparameter fits at the same sizes. A restarted sequential run then proposes exactly
+    // what the uninterrupted one would have (with several proposals in flight it is close).
+    // Replaces the observations; start points added before are kept.
+    void replay(const std::vector<Observation>& history, const std::vector<std::string>& origins);
 
     const SearchSpace& space() const { return space_; }
     const OptimizerOptions& options() const { return options_; }

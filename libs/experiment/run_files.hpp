@@ -25,7 +25,7 @@ struct EvaluationRecord {
     double p = 0, v = 0, eps = 0;
     std::size_t m = 0;
     double wall_s = 0;
-    std::string origin;              // "start", "initial", "model", "resumed"
+    std::string origin;              // "start", "initial", "model" (kept when a run resumes)
 };
 
 // The baseline of a run: the index in `records` of the successful evaluation of the

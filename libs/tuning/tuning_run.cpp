@@ -33,14 +33,16 @@ void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
         throw std::logic_error("TuningRun::resume: only before the first evaluation");
     }
     std::vector<bo::Observation> history;
-    for (auto r : trials) {
+    std::vector<std::string> origins;
+    for (const auto& r : trials) {
         history.push_back({experiment::optimizer_values(experiment_, r.params), r.p, r.failed, r.error});
-        r.origin = "resumed";
-        add(std::move(r));
+        origins.push_back(r.origin);
+        add(r);
     }
-    // A resumed run does not re-add its start points: they are in the history already.
-    optimizer_ = bo::Optimizer(experiment::search_space(experiment_), experiment::optimizer_options(experiment_),
-                               history);
+    // A resumed run does not re-add its start points: they are in the history already. The
+    // optimizer replays how the history was proposed, so it goes on as if never stopped.
+    optimizer_ = bo::Optimizer(experiment::search_space(experiment_), experiment::optimizer_options(experiment_));
+    optimizer_.replay(history, origins);
     resumed_ = trials.size();
     sequence_ = trials.size();
     if (const auto pb = optimizer_.predicted_best()) {
@@ -141,10 +143,12 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
         rec.error = error;
         rec.p = rec.v = rec.eps = 0;
         rec.m = 0;
-        optimizer_.tell_failed(f.proposal, error);
-    } else {
-        optimizer_.tell(f.proposal, rec.p);
     }
+    // The model learns the set as evaluated (rounded by the space), not the proposal's raw
+    // values: exactly what a restart reads back from trials.csv, so a resumed run proposes
+    // what this one would have proposed.
+    optimizer_.cancel(f.proposal);
+    optimizer_.add_observation({experiment::optimizer_values(experiment_, rec.params), rec.p, rec.failed, rec.error});
     add(rec);
     if (const auto pb = optimizer_.predicted_best()) {
         summary_.predicted_best = experiment::full_set(experiment_, pb->values);

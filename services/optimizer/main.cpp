@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
     app.add_option("--dataset-id", options.dataset_id, "dataset id as announced (default: read the experiment's dataset dir)");
     app.add_option("--matcher", options.matcher_id, "matcher id of the workers (default: lru_matcher)");
     app.add_option("--wait", options.wait_s, "seconds to wait for dataset and workers (default: 120)");
+    app.add_option("--resend", options.resend_s, "seconds before an unanswered request is sent again (default: 15)")
+        ->check(CLI::Range(0.1, 3600.0));
     app.add_option("--cache", cache, "directory for fetched dataset metadata (default: /tmp/maptune-cache)");
     add_dds_options(app, dds);
     CLI11_PARSE(app, argc, argv);

@@ -182,7 +182,7 @@ TEST_F(TuningRunTest, ResumeRestoresNumberingAndBestWithoutReaskingStartPoints) 
     second.resume(trials);
     EXPECT_EQ(second.resumed(), 2u);
     EXPECT_EQ(second.summary().best, 0);
-    EXPECT_EQ(second.summary().evaluations[0].origin, "resumed");
+    EXPECT_EQ(second.summary().evaluations[0].origin, "start") << "where it came from, kept";
     const auto r = second.ask(1, 0.0).at(0);
     EXPECT_NE(r.origin, "start");
     EXPECT_NE(second.set_key(r.params), second.set_key(e.start_points[0]));
@@ -231,6 +231,49 @@ TEST_F(TuningRunTest, BatchBoundsTheRequestsInFlight) {
     EXPECT_EQ(free_slots.ask(4, 0.0).size(), 0u);
     auto batch = make(load("budget: {evaluations: 10}\n", "optimizer: {seed: 3, initial_points: 2, batch: 3}\n"), "y");
     EXPECT_EQ(batch.ask(8, 0.0).size(), 3u) << "a batch fixes the requests in flight";
+}
+
+}  // namespace
+}  // namespace maptune
+
+namespace maptune {
+namespace {
+
+// What makes a killed and restarted optimizer indistinguishable from one that never died
+// (the fault test compares their trials): the next proposal depends only on the history.
+TEST_F(TuningRunTest, AResumedRunProposesWhatTheUninterruptedRunProposed) {
+    // Killed in the initial design (after 2 of start + 4 design points) and in the model phase.
+    auto e = load("budget: {evaluations: 9}\n", "optimizer: {seed: 3, initial_points: 5}\n");
+    auto matched_for = [](const tuning::Request& r) {
+        return static_cast<int>(std::lround(r.params.get("n_C") + 10 * r.params.get("t_C"))) % 6;
+    };
+    auto through_file = [&](const tuning::TuningRun& run) {
+        tuning::RunDirectory files(dir_ / "run", e, {"core", "d", "dn", "m", "v", "now"});
+        files.write_results(run.summary());
+        return experiment::read_trials_csv(files.trials_file(), e.space);
+    };
+    auto whole = make(e, "one-life");
+    std::vector<std::string> keys;
+    for (int i = 0; i < 9; ++i) {
+        const auto r = whole.ask(1, i).at(0);
+        keys.push_back(whole.set_key(r.params));
+        ASSERT_EQ(whole.tell(answer(r, matched_for(r)), i + 0.5), ReplyOutcome::kAccepted);
+    }
+    // Killed after 2, then after 5 (with a request in flight each time), restarted each time.
+    std::vector<tuning::EvaluationRecord> trials;
+    std::vector<std::string> resumed_keys;
+    for (const int stop : {2, 5, 9}) {
+        auto life = make(e, "life-" + std::to_string(stop));
+        life.resume(trials);
+        while (static_cast<int>(life.summary().evaluations.size()) < stop) {
+            const auto r = life.ask(1, 0).at(0);
+            resumed_keys.push_back(life.set_key(r.params));
+            life.tell(answer(r, matched_for(r)), 1);
+        }
+        if (stop < 9) life.ask(1, 2);  // in flight when killed: never answered
+        trials = through_file(life);
+    }
+    EXPECT_EQ(resumed_keys, keys);
 }
 
 }  // namespace
