@@ -40,6 +40,10 @@ matcher::MatcherSettings experiment_matcher_settings(const experiment::Experimen
     s.threads = threads > 0 ? threads : e.matcher_threads;
     s.pair_time_limit_s = e.pair_time_limit_s;
     s.total_time_limit_s = e.total_time_limit_s;
+    for (const auto& m : e.matcher_settings) {
+        const std::string error = matcher::set_matcher_setting(s, m.key, m.value);
+        if (!error.empty()) throw params::ConfigError(m.where + ": " + error);
+    }
     return s;
 }
 

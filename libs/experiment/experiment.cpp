@@ -255,7 +255,21 @@ Experiment load_experiment(const std::string& file) {
     if (root["matcher"].IsDefined()) {
         const YamlPath p = top.child("matcher");
         const YAML::Node n = root["matcher"];
-        params::check_keys(n, p, {"threads", "pair_time_limit_s", "total_time_limit_s"});
+        params::check_keys(n, p, {"threads", "pair_time_limit_s", "total_time_limit_s", "settings"});
+        if (n["settings"].IsDefined()) {
+            const YamlPath sp = p.child("settings");
+            params::require_map(n["settings"], sp);
+            params::check_unique_keys(n["settings"], sp);
+            for (const auto& kv : n["settings"]) {
+                if (!kv.first.IsScalar()) sp.fail(kv.first, "expected a setting name as key");
+                const std::string key = kv.first.as<std::string>();
+                const YamlPath kp = sp.child(key);
+                if (!kv.second.IsScalar()) kp.fail(kv.second, "expected a value (number, true/false or a name)");
+                e.matcher_settings.push_back({key, kv.second.as<std::string>(),
+                                              file + ":" + std::to_string(kv.second.Mark().line + 1) + ": " +
+                                                  "matcher.settings." + key});
+            }
+        }
         if (n["threads"].IsDefined()) e.matcher_threads = read_int(n["threads"], p.child("threads"), 0, 256);
         if (n["pair_time_limit_s"].IsDefined()) {
             e.pair_time_limit_s = read_range(n["pair_time_limit_s"], p.child("pair_time_limit_s"), 0.01, 1e6);

@@ -60,8 +60,17 @@ struct Experiment {
     std::vector<std::string> start_point_files;
     // Non-optimized matcher settings.
     int matcher_threads = 0;                 // 0 = hardware concurrency
+    // matcher.settings: non-optimized matcher settings KEY: VALUE (docs/matcher.md, as
+    // `--matcher KEY=VALUE`); part of the matcher version. `where` names file, line and key.
+    struct MatcherSetting {
+        std::string key, value, where;
+    };
+    std::vector<MatcherSetting> matcher_settings;
     double pair_time_limit_s = 60;
-    double total_time_limit_s = 1800;
+    // The matcher's own default (MatcherSettings::total_time_limit_s): it is part of the matcher
+    // version, and a different default kept `maptune run` from sharing observations with
+    // standalone workers, `evaluate` and `compare`.
+    double total_time_limit_s = 3600;
     std::vector<ValidationTarget> validate;
     // Embedded run: worker processes/threads started by `maptune run`.
     int workers = 1;

@@ -97,6 +97,7 @@ int OptimizerService::compatible_slots(std::string* version) {
     int n = 0;
     for (const auto& [id, w] : workers_) {
         if (w.matcher_id() != options_.matcher_id || w.space_hash() != options_.experiment.space.hash()) continue;
+        if (!options_.matcher_version.empty() && w.matcher_version() != options_.matcher_version) continue;
         if (version) *version = w.matcher_version();
         n += static_cast<int>(w.slots());
     }
@@ -214,9 +215,23 @@ RunSummary OptimizerService::run() {
 
     // A compatible worker tells us the matcher version (part of every observation key).
     if (!wait_for([&] { return compatible_slots(&matcher_version_) > 0; }, options_.wait_s)) {
-        throw std::runtime_error("optimizer: no matcher worker for matcher '" + options_.matcher_id +
-                                 "' with design space " + e.space.hash() + " appeared within " +
-                                 fmt(options_.wait_s, 0) + " s");
+        std::string others;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            for (const auto& [id, w] : workers_) {
+                if (w.matcher_id() == options_.matcher_id && w.space_hash() == e.space.hash()) {
+                    others += (others.empty() ? "" : ", ") + id + " (version " + w.matcher_version() + ")";
+                }
+            }
+        }
+        throw std::runtime_error(
+            "optimizer: no matcher worker for matcher '" + options_.matcher_id + "'" +
+            (options_.matcher_version.empty() ? "" : " version " + options_.matcher_version) +
+            " with design space " + e.space.hash() + " appeared within " + fmt(options_.wait_s, 0) + " s" +
+            (others.empty() ? ""
+                            : "; workers with other matcher settings: " + others +
+                                  " — start them with the experiment's settings (maptune_matcher_worker "
+                                  "--experiment FILE)"));
     }
 
     tuning::TuningRun run(e, {options_.experiment_id, options_.incarnation, options_.resend_s},

@@ -29,6 +29,9 @@ struct OptimizerServiceOptions {
     std::string experiment_id;            // empty: the experiment's name
     std::string incarnation;              // empty: a fresh incarnation_id() (tests fix it)
     std::string matcher_id = "lru_matcher";
+    // The matcher version the experiment needs (lru_matcher: from its matcher settings); only
+    // workers announcing it are used. Empty: whatever a worker of matcher_id announces.
+    std::string matcher_version;
     double wait_s = 120;                  // for the dataset and the first compatible worker
     double resend_s = 15;                 // re-send an unanswered request (sample_db restarts)
     bool progress_bar = true;             // redraw a bar on a terminal

@@ -5,6 +5,9 @@
 #include <thread>
 
 #include "dds_options.hpp"
+#include "evaluation/validation.hpp"
+#include "experiment/experiment.hpp"
+#include "params/yaml_util.hpp"
 #include "matcher_worker.hpp"
 #include "runtime.hpp"
 
@@ -27,6 +30,13 @@ int main(int argc, char** argv) {
     double submap_cache_mb = static_cast<double>(LruBackend::kDefaultSubmapCacheBytes >> 20);
     app.add_option("--submap-cache-mb", submap_cache_mb, "loaded submaps kept in memory, MB (default: 1024)")
         ->check(CLI::Range(1.0, 1e7));
+    std::string experiment_file;
+    std::vector<std::string> overrides;
+    app.add_option("--experiment", experiment_file,
+                   "take the matcher settings (matcher: section) from this experiment, so that the worker "
+                   "evaluates the version its optimizer asks for")
+        ->check(CLI::ExistingFile);
+    app.add_option("--matcher", overrides, "non-optimized matcher setting KEY=VALUE (repeatable, after --experiment; docs/matcher.md)");
     app.add_option("--dataset-dir", local_dataset, "read this dataset directory directly instead of fetching it");
     app.add_flag("--analytic", analytic, "run the analytic test objective instead of the PCL matcher");
     app.add_option("--delay", analytic_options.delay_per_pair_s, "analytic: seconds per pair (default: 0)");
@@ -37,6 +47,19 @@ int main(int argc, char** argv) {
     install_stop_signals();
     try {
         const auto space = maptune::params::ParameterSpace::load(space_file);
+        if (!experiment_file.empty()) {
+            const int threads = settings.threads;
+            settings = maptune::evaluation::experiment_matcher_settings(
+                maptune::experiment::load_experiment(experiment_file));
+            settings.threads = threads;  // this machine's cores, not the experiment's
+        }
+        for (const auto& kv : overrides) {
+            const auto eq = kv.find('=');
+            const std::string error = eq == std::string::npos
+                                          ? "--matcher " + kv + ": expected KEY=VALUE"
+                                          : maptune::matcher::set_matcher_setting(settings, kv.substr(0, eq), kv.substr(eq + 1));
+            if (!error.empty()) throw maptune::params::ConfigError(error);
+        }
         maptune::dds::Participant participant(dds);
         DatasetMirror mirror(participant, cache, options.worker_id.empty() ? make_id("w") : options.worker_id);
         if (!local_dataset.empty()) mirror.add_local(local_dataset);

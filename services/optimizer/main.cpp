@@ -4,6 +4,7 @@
 
 #include "dds_options.hpp"
 #include "params/yaml_util.hpp"
+#include "evaluation/validation.hpp"
 #include "optimizer_service.hpp"
 #include "runtime.hpp"
 
@@ -27,6 +28,12 @@ int main(int argc, char** argv) {
     try {
         options.experiment = maptune::experiment::load_experiment(experiment_file);
         options.run_dir = run_dir;
+        // The reference matcher's version follows from the experiment's matcher settings: only
+        // workers started with them (maptune_matcher_worker --experiment) evaluate this run.
+        if (options.matcher_id == maptune::evaluation::kMatcherId) {
+            options.matcher_version = maptune::evaluation::matcher_version(
+                maptune::evaluation::experiment_matcher_settings(options.experiment));
+        }
         maptune::dds::Participant participant(dds);
         DatasetMirror mirror(participant, cache, make_id("optimizer"));
         OptimizerService service(participant, mirror, options);

@@ -119,6 +119,29 @@ TEST_F(ValidationTest, ErrorsNameWhatIsMissing) {
     }
 }
 
+// matcher.settings reach the matcher settings (and so the matcher version every worker must
+// announce); a bad one names file, line and key.
+TEST_F(ValidationTest, ExperimentMatcherSettingsAndTheirErrors) {
+    auto plain = write_experiment("");
+    auto e = write_experiment("matcher:\n  total_time_limit_s: 900\n  settings: {min_ransac_inliers: 8, lrf_method: board}\n");
+    const auto s = experiment_matcher_settings(e);
+    EXPECT_EQ(s.min_ransac_inliers, 8);
+    EXPECT_EQ(s.lrf_method, matcher::LrfMethod::kBoard);
+    EXPECT_DOUBLE_EQ(s.total_time_limit_s, 900);
+    EXPECT_NE(matcher_version(s), matcher_version(experiment_matcher_settings(plain)));
+    // Without a matcher section the experiment's matcher is the matcher's own default: the
+    // version a worker started without --experiment announces (they share observations).
+    EXPECT_EQ(matcher_version(experiment_matcher_settings(plain)), matcher_version(matcher::MatcherSettings{}));
+    auto bad = write_experiment("matcher:\n  settings:\n    min_ransac_inliers: lots\n");
+    try {
+        experiment_matcher_settings(bad);
+        FAIL() << "accepted a bad matcher setting";
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("exp.yaml:7: matcher.settings.min_ransac_inliers: "), std::string::npos)
+            << err.what();
+    }
+}
+
 TEST(SeedSummaryTest, MedianMinMaxAndSpreadOverSeeds) {
     const Spread s = spread({0.7, 0.5, 0.6, 0.9});
     EXPECT_EQ(s.n, 4);

@@ -184,5 +184,50 @@ TEST(OptimizerReplies, StaleAndForeignRepliesAreNeverToldToTheModel) {
     fs::remove_all(dir);
 }
 
+// Workers started with other matcher settings announce another matcher version: the optimizer
+// must not use them (the run's observations would belong to another matcher), and says so.
+TEST(OptimizerReplies, WorkersOfAnotherMatcherVersionAreNotUsed) {
+    const fs::path dir = test::make_temp_dir("maptune_optimizer_version_");
+    const auto shm_before = testing::fastdds_shm_files();
+    const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 3, 3);
+    std::ofstream(dir / "exp.yaml") << "name: version\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
+                                    << "dataset: " << lab.string() << "\nmeasure: {m_star: 3}\nbudget: {evaluations: 2}\n";
+    const auto e = experiment::load_experiment((dir / "exp.yaml").string());
+    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    {
+        dds::Participant fake({domain, "", "maptune_loopback", "fake_worker"});
+        auto status = fake.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
+        v1::WorkerStatus ws;
+        ws.worker_id("w-defaults");
+        ws.matcher_id("lru_matcher");
+        ws.matcher_version("2-aaaaaaaa");
+        ws.space_hash(e.space.hash());
+        ws.slots(1);
+        status.write(ws);
+
+        services::OptimizerServiceOptions options;
+        options.experiment = e;
+        options.run_dir = dir / "run";
+        options.wait_s = 2;
+        options.progress_bar = false;
+        options.matcher_version = "2-bbbbbbbb";
+        options.log = [](const std::string&) {};
+        dds::Participant opt_p({domain, "", "maptune_loopback", "optimizer"});
+        services::DatasetMirror mirror(opt_p, dir / "cache", "optimizer");
+        services::OptimizerService optimizer(opt_p, mirror, options);
+        try {
+            optimizer.run();
+            FAIL() << "ran with a worker of another matcher version";
+        } catch (const std::runtime_error& err) {
+            const std::string what = err.what();
+            EXPECT_NE(what.find("no matcher worker for matcher 'lru_matcher' version 2-bbbbbbbb"), std::string::npos) << what;
+            EXPECT_NE(what.find("w-defaults (version 2-aaaaaaaa)"), std::string::npos) << what;
+            EXPECT_NE(what.find("--experiment"), std::string::npos) << what;
+        }
+    }
+    testing::remove_orphaned_fastdds_shm(shm_before);
+    fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace maptune
