@@ -146,4 +146,22 @@ std::string set_matcher_setting(MatcherSettings& s, const std::string& key, cons
     return it->second();
 }
 
+std::vector<std::string> matcher_setting_names() {
+    // The table lives in set_matcher_setting (its lambdas bind the field to set); its error for
+    // an unknown key lists every key, so that list is the one source.
+    MatcherSettings s;
+    const std::string error = set_matcher_setting(s, "", "");
+    const std::string marker = "(known: ";
+    const auto begin = error.find(marker) + marker.size();
+    std::vector<std::string> out;
+    std::string list = error.substr(begin, error.size() - begin - 1);
+    for (std::size_t pos = 0; pos < list.size();) {
+        const auto comma = list.find(", ", pos);
+        out.push_back(list.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos));
+        if (comma == std::string::npos) break;
+        pos = comma + 2;
+    }
+    return out;
+}
+
 }  // namespace maptune::matcher

@@ -128,5 +128,7 @@ std::string feature_settings_fingerprint(const MatcherSettings& settings);
 // and the value ("" when set); unknown keys list the known ones.
 std::string set_matcher_setting(MatcherSettings& settings, const std::string& key,
                                 const std::string& value);
+// Every key set_matcher_setting accepts (its one table), sorted.
+std::vector<std::string> matcher_setting_names();
 
 }  // namespace maptune::matcher

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <filesystem>
 
 #include "dataset/simulator.hpp"
@@ -92,6 +94,40 @@ TEST_F(EvaluationTest, MatcherSettingsArePartOfTheKey) {
     matcher::MatcherSettings c = a;
     c.threads = 7;  // does not change results
     EXPECT_EQ(matcher_version(a), matcher_version(c));
+}
+
+// Issue 12: matcher_version and the feature fingerprint are hand-kept field lists, so a setting
+// missing from them would silently mix observations of different matchers. Every settable key
+// must change the version, and those that change per-submap features the fingerprint too.
+// A new setting fails this test until it has a value here (and is in the lists).
+TEST_F(EvaluationTest, EverySettableMatcherSettingChangesTheVersion) {
+    const std::map<std::string, std::pair<std::string, bool>> other_value{  // value, per-submap
+        {"collinear_inlier_fraction", {"0.5", false}}, {"consensus_from_n_TF", {"true", false}},
+        {"icp_enabled", {"false", false}}, {"icp_max_correspondence_m", {"0.3", false}},
+        {"icp_max_iterations", {"7", false}}, {"icp_point_to_plane", {"false", true}},
+        {"icp_source_voxel_factor", {"3", true}}, {"icp_voxel_m", {"0.2", true}},
+        {"line_threshold_m", {"0.2", false}}, {"lrf_method", {"board", true}},
+        {"max_roll_pitch_rad", {"0.2", false}}, {"min_icp_inlier_fraction", {"0.3", false}},
+        {"min_keypoints", {"9", true}}, {"min_points", {"99", true}},
+        {"min_ransac_inliers", {"8", false}}, {"outlier_mean_k", {"9", true}},
+        {"outlier_removal", {"false", true}}, {"outlier_stddev_mul", {"1.5", true}},
+        {"ransac_inlier_threshold_m", {"0.3", false}}, {"ransac_iterations", {"99", false}},
+        {"ransac_threshold_from", {"v_TF", false}}, {"seed", {"7", false}},
+        {"surface_points_per_radius", {"5", true}}, {"unknown_samples_per_diameter", {"8", true}},
+        {"viewpoint_x", {"1", true}}, {"viewpoint_y", {"1", true}}, {"viewpoint_z", {"1", true}},
+    };
+    const matcher::MatcherSettings defaults;
+    for (const auto& key : matcher::matcher_setting_names()) {
+        const auto it = other_value.find(key);
+        ASSERT_NE(it, other_value.end()) << "setting " << key << " has no test value: add it here";
+        matcher::MatcherSettings s;
+        ASSERT_EQ(matcher::set_matcher_setting(s, key, it->second.first), "") << key;
+        EXPECT_NE(matcher_version(s), matcher_version(defaults)) << key << " does not change the matcher version";
+        EXPECT_EQ(matcher::feature_settings_fingerprint(s) != matcher::feature_settings_fingerprint(defaults),
+                  it->second.second)
+            << key << (it->second.second ? " does not change" : " changes") << " the feature fingerprint";
+    }
+    EXPECT_EQ(matcher::matcher_setting_names().size(), other_value.size());
 }
 
 }  // namespace
