@@ -55,6 +55,46 @@ const dataset::Submap& Evaluator::submap(int run, int index) {
     return *slot;
 }
 
+std::optional<std::vector<store::PairRecord>> match_pair_ids(matcher::Matcher& matcher,
+                                                             const params::ParameterSet& params,
+                                                             const std::vector<std::string>& pair_ids,
+                                                             const SubmapSource& source, std::string* error,
+                                                             matcher::EvaluationStats* stats) {
+    std::vector<const dataset::Submap*> submaps;
+    std::map<std::string, int> index;
+    std::vector<std::pair<int, int>> pairs;
+    auto index_of = [&](const std::string& id) -> int {
+        if (auto it = index.find(id); it != index.end()) return it->second;
+        const dataset::Submap* s = source(id, error);
+        if (s == nullptr) return -1;
+        submaps.push_back(s);
+        return index[id] = static_cast<int>(submaps.size()) - 1;
+    };
+    for (const auto& pid : pair_ids) {
+        const auto bar = pid.find('|');
+        if (bar == std::string::npos || bar == 0 || bar + 1 >= pid.size()) {
+            *error = "malformed pair id '" + pid + "'";
+            return std::nullopt;
+        }
+        const int a = index_of(pid.substr(0, bar)), b = index_of(pid.substr(bar + 1));
+        if (a < 0 || b < 0) return std::nullopt;
+        pairs.emplace_back(a, b);
+    }
+    const auto results = matcher.match_pairs(submaps, pairs, matcher::from_named_values(params.values()), stats);
+    std::vector<store::PairRecord> out;
+    for (std::size_t i = 0; i < results.size(); ++i) {
+        store::PairRecord r;
+        r.pair_id = pair_ids[i];
+        r.matched = results[i].matched;
+        r.T_a_b_est = results[i].T_a_b;
+        r.duration_s = results[i].duration_s;
+        r.status = to_store_status(results[i].status);
+        r.reason = results[i].reason;
+        out.push_back(std::move(r));
+    }
+    return out;
+}
+
 store::Observation Evaluator::evaluate(dataset::View view, const params::ParameterSet& params,
                                        matcher::EvaluationStats* stats) {
     const auto start = std::chrono::steady_clock::now();
@@ -63,30 +103,21 @@ store::Observation Evaluator::evaluate(dataset::View view, const params::Paramet
     obs.key = key(view, params);
     // Any reference gives the same pairs; the matcher never sees the reference transforms.
     const auto pairs = dataset_.pairs(view, dataset::Reference::gt);
-    std::vector<const dataset::Submap*> submaps;
-    std::map<std::pair<int, int>, int> index_of;
-    auto index = [&](int run, int i) {
-        const auto [it, inserted] = index_of.emplace(std::make_pair(run, i), 0);
-        if (inserted) {
-            it->second = static_cast<int>(submaps.size());
-            submaps.push_back(&submap(run, i));
-        }
-        return it->second;
-    };
-    std::vector<std::pair<int, int>> index_pairs;
-    for (const auto& p : pairs) index_pairs.emplace_back(index(p.run, p.a), index(p.run, p.b));
-    const matcher::MatcherParams mp = matcher::from_named_values(obs.params.values());
-    const auto results = matcher_.match_pairs(submaps, index_pairs, mp, stats);
-    for (std::size_t i = 0; i < pairs.size(); ++i) {
-        store::PairRecord r;
-        r.pair_id = scoring::pair_id(pairs[i]);
-        r.matched = results[i].matched;
-        r.T_a_b_est = results[i].T_a_b;
-        r.duration_s = results[i].duration_s;
-        r.status = to_store_status(results[i].status);
-        r.reason = results[i].reason;
-        obs.pairs.push_back(std::move(r));
+    std::map<std::string, std::pair<int, int>> where;  // submap id -> (run, index)
+    std::vector<std::string> pair_ids;
+    for (const auto& p : pairs) {
+        where[p.id_a] = {p.run, p.a};
+        where[p.id_b] = {p.run, p.b};
+        pair_ids.push_back(scoring::pair_id(p));
     }
+    std::string error;
+    // Dataset submaps load or throw (DatasetError names the file): no nullopt here.
+    auto results = match_pair_ids(
+        matcher_, obs.params, pair_ids,
+        [&](const std::string& id, std::string*) { return &submap(where.at(id).first, where.at(id).second); },
+        &error, stats);
+    if (!results) throw std::runtime_error("evaluate: " + error);
+    obs.pairs = std::move(*results);
     obs.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return obs;

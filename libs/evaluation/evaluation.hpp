@@ -1,6 +1,8 @@
 #pragma once
 // Evaluating the reference matcher on a dataset view (issue 4). Scoring: scoring/scoring.hpp.
 
+#include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -20,6 +22,19 @@ inline constexpr const char* kMatcherId = "lru_matcher";
 // Fingerprint of every non-optimized matcher setting that changes results: part of the
 // matcher version in observation keys, so different settings never share an observation.
 std::string matcher_version(const matcher::MatcherSettings& settings);
+
+// Submap by id ("run00/submap003"); nullptr with `error` set when it cannot be had.
+using SubmapSource = std::function<const dataset::Submap*(const std::string& id, std::string* error)>;
+
+// The one path from a parameter set to per-pair results (Evaluator and the worker backend):
+// runs `matcher` on the pairs "idA|idB" (each submap fetched once) with the full rounded set
+// and returns one record per pair id, in order. nullopt with `error` naming the pair id or
+// submap when a pair id is malformed or a submap cannot be had.
+std::optional<std::vector<store::PairRecord>> match_pair_ids(matcher::Matcher& matcher,
+                                                             const params::ParameterSet& params,
+                                                             const std::vector<std::string>& pair_ids,
+                                                             const SubmapSource& submaps, std::string* error,
+                                                             matcher::EvaluationStats* stats = nullptr);
 
 // Runs the matcher over dataset views. Submaps are loaded on first use and kept.
 class Evaluator {

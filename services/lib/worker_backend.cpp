@@ -71,43 +71,21 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
         return out;
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    std::vector<const dataset::Submap*> submaps;
     std::vector<std::shared_ptr<const LoadedSubmap>> held;  // alive for the task, evicted or not
-    std::map<std::string, int> index;
-    std::vector<std::pair<int, int>> pairs;
-    auto index_of = [&](const std::string& id) -> int {
-        if (auto it = index.find(id); it != index.end()) return it->second;
-        auto s = submap(*ds, id, &error);
-        if (s == nullptr) return -1;
-        held.push_back(s);
-        submaps.push_back(&s->submap);
-        return index[id] = static_cast<int>(submaps.size()) - 1;
-    };
-    for (const auto& pid : task.pair_ids) {
-        std::string a, b;
-        if (!split_pair_id(pid, &a, &b)) {
-            out.error = "malformed pair id '" + pid + "'";
-            return out;
-        }
-        const int ia = index_of(a), ib = index_of(b);
-        if (ia < 0 || ib < 0) {
-            out.error = error;
-            return out;
-        }
-        pairs.emplace_back(ia, ib);
+    auto results = evaluation::match_pair_ids(
+        matcher_, task.params, task.pair_ids,
+        [&](const std::string& id, std::string* why) -> const dataset::Submap* {
+            auto s = submap(*ds, id, why);
+            if (!s) return nullptr;
+            held.push_back(s);
+            return &s->submap;
+        },
+        &error);
+    if (!results) {
+        out.error = error;
+        return out;
     }
-    const matcher::MatcherParams mp = matcher::from_named_values(task.params.values());
-    const auto results = matcher_.match_pairs(submaps, pairs, mp);
-    for (std::size_t i = 0; i < results.size(); ++i) {
-        store::PairRecord r;
-        r.pair_id = task.pair_ids[i];
-        r.matched = results[i].matched;
-        r.T_a_b_est = results[i].T_a_b;
-        r.duration_s = results[i].duration_s;
-        r.status = evaluation::to_store_status(results[i].status);
-        r.reason = results[i].reason;
-        out.pairs.push_back(std::move(r));
-    }
+    out.pairs = std::move(*results);
     out.ok = true;
     return out;
 }
