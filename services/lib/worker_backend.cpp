@@ -10,14 +10,6 @@
 
 namespace maptune::services {
 
-bool split_pair_id(const std::string& pair_id, std::string* a, std::string* b) {
-    const auto bar = pair_id.find('|');
-    if (bar == std::string::npos || bar == 0 || bar + 1 >= pair_id.size()) return false;
-    *a = pair_id.substr(0, bar);
-    *b = pair_id.substr(bar + 1);
-    return true;
-}
-
 std::shared_ptr<const dataset::Dataset> DatasetCache::get(const std::string& id, std::string* error) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (auto it = open_.find(id); it != open_.end()) return it->second;

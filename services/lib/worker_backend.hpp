@@ -41,8 +41,6 @@ public:
     virtual TaskOutcome run(const TaskSpec& task) = 0;
 };
 
-// Splits "idA|idB"; false when malformed.
-bool split_pair_id(const std::string& pair_id, std::string* a, std::string* b);
 
 // Opened datasets by id, shared by a backend's tasks.
 class DatasetCache {
