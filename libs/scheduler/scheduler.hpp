@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "params/parameter_set.hpp"
 #include "store/observation_store.hpp"
 
 namespace maptune::scheduler {
@@ -51,7 +52,7 @@ struct JobSpec {
     std::string matcher_id;
     std::string matcher_version;  // empty: any version of matcher_id
     std::string space_hash;
-    std::vector<std::pair<std::string, double>> params;  // full rounded set
+    params::ParameterSet params;  // full rounded set
     std::vector<std::string> pair_ids;                   // results come back in this order
 };
 

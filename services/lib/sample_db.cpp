@@ -110,9 +110,7 @@ void SampleDb::loop() {
             t.view(a.job->view);
             t.matcher_id(a.job->matcher_id);
             t.space_hash(a.job->space_hash);
-            params::ParameterSet p;
-            for (const auto& [name, value] : a.job->params) p.set(name, value);
-            t.params(dds::to_msg(p));
+            t.params(dds::to_msg(a.job->params));
             t.pair_ids(a.pair_ids);
             t.lease_ms(static_cast<uint32_t>(options_.scheduler.lease_s * 1000));
             tasks_.write(t);
@@ -218,7 +216,7 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
     spec.matcher_id = r.matcher_id();
     spec.matcher_version = r.matcher_version();
     spec.space_hash = r.space_hash();
-    for (const auto& [name, value] : full) spec.params.emplace_back(name, value);
+    spec.params = full;
     for (const auto& p : ds->pairs(dataset::parse_view(r.view()), dataset::Reference::gt)) {
         spec.pair_ids.push_back(scoring::pair_id(p));
     }
@@ -252,7 +250,7 @@ void SampleDb::finish(scheduler::CompletedJob job) {
     store::Observation o;
     o.key = job_keys_.at(job.job_key);
     job_keys_.erase(job.job_key);
-    for (const auto& [name, value] : job.spec.params) o.params.set(name, value);
+    o.params = job.spec.params;
     o.pairs = std::move(job.pairs);
     o.wall_seconds = job.finished_at - job.started_at;
     // Timeouts depend on the machine's load and worker failures on the worker: the requesters
