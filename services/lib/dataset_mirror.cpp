@@ -132,13 +132,39 @@ bool DatasetMirror::fetch(const std::string& dataset_id, const std::vector<std::
         requests_.write(r);
     }
     bool ok = true;
-    for (const auto& [rid, path] : started) {
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(timeout_s));
+    for (const auto& [first_rid, path] : started) {
         Transfer t;
+        std::string rid = first_rid;
         {
             std::unique_lock<std::mutex> lock(mutex_);
-            const bool done = cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
-                return transfers_[rid].done || stop_requested();
-            });
+            std::size_t seen = 0;
+            bool done = false;
+            for (;;) {
+                // A transfer without a new chunk for kRetryS was lost (the dataset_server
+                // restarted, or its reader had not matched our request): ask again under a new
+                // id, so chunks of the lost one are never mixed in.
+                const auto slice = std::min(deadline, std::chrono::steady_clock::now() + kRetry);
+                done = cv_.wait_until(lock, slice, [&] { return transfers_[rid].done || stop_requested(); });
+                if (done || stop_requested() || std::chrono::steady_clock::now() >= deadline) break;
+                if (transfers_[rid].received != seen) {
+                    seen = transfers_[rid].received;
+                    continue;
+                }
+                transfers_.erase(rid);
+                v1::FileRequest again;
+                again.request_id(client_id_ + "/" + std::to_string(next_request_++));
+                again.dataset_id(dataset_id);
+                again.path(path);
+                rid = again.request_id();
+                transfers_[rid].path = path;
+                seen = 0;
+                lock.unlock();  // a reliable write may wait for the DDS thread, which takes mutex_
+                requests_.write(again);
+                lock.lock();
+            }
             t = std::move(transfers_[rid]);
             transfers_.erase(rid);
             if (!done || !t.done) {

@@ -3,6 +3,7 @@
 // a local cache directory (<cache>/<dataset id>/...), verified by content hash. A dataset
 // directory that is available locally can be registered instead (embedded runs, shared disks).
 
+#include <chrono>
 #include <condition_variable>
 #include <filesystem>
 #include <map>
@@ -41,6 +42,8 @@ public:
     std::size_t files_fetched() const;
 
 private:
+    // A transfer that receives no chunk for this long is requested again.
+    static constexpr std::chrono::seconds kRetry{3};
     struct Transfer {
         std::string path;
         std::vector<std::string> chunks;

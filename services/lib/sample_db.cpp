@@ -120,11 +120,34 @@ void SampleDb::loop() {
     }
 }
 
-std::shared_ptr<const dataset::Dataset> SampleDb::dataset(const std::string& id, std::string* error) {
+std::shared_ptr<const dataset::Dataset> SampleDb::dataset(const std::string& id, std::string* error, bool* pending) {
+    *pending = false;
     if (auto it = datasets_.find(id); it != datasets_.end()) return it->second;
-    auto ds = mirror_.open(id, options_.dataset_timeout_s, error);
-    if (!ds) return nullptr;
-    return datasets_[id] = std::make_shared<const dataset::Dataset>(std::move(*ds));
+    auto it = opening_.find(id);
+    if (it == opening_.end()) {
+        // Fetching the metadata can take seconds (or the timeout, when the dataset_server dies):
+        // in the background, so heartbeats, results and other requests go on meanwhile.
+        it = opening_
+                 .emplace(id, std::async(std::launch::async,
+                                         [this, id]() -> Opened {
+                                             std::string why;
+                                             auto ds = mirror_.open(id, options_.dataset_timeout_s, &why);
+                                             if (!ds) return {nullptr, why};
+                                             return {std::make_shared<const dataset::Dataset>(std::move(*ds)), ""};
+                                         }))
+                 .first;
+    }
+    if (it->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+        *pending = true;
+        return nullptr;
+    }
+    Opened opened = it->second.get();
+    opening_.erase(it);  // a failure is not remembered: a later request fetches again
+    if (!opened.first) {
+        *error = opened.second;
+        return nullptr;
+    }
+    return datasets_[id] = opened.first;
 }
 
 void SampleDb::reply_error(const v1::ObservationRequest& r, const std::string& error) {
@@ -200,7 +223,18 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
         return reply_error(r, "unknown dataset '" + r.dataset_id() + "': no dataset_server announced it");
     }
     std::string error;
-    const auto ds = dataset(r.dataset_id(), &error);
+    bool pending = false;
+    const auto ds = dataset(r.dataset_id(), &error, &pending);
+    const double since = parked_since < 0 ? now_s() : parked_since;
+    // Its metadata is on the way; or the transfer timed out (a dataset_server restarting):
+    // an infrastructure fault, not an answer — fetch again for a while before refusing.
+    const bool transient = !ds && !pending && error.find("timed out") != std::string::npos &&
+                           now_s() - since < 10 * options_.dataset_timeout_s;
+    if (pending || transient) {
+        if (transient && options_.log) options_.log("fetching dataset " + r.dataset_id() + " again: " + error);
+        parked_.emplace_back(since, r);
+        return;
+    }
     if (!ds) return reply_error(r, "unknown dataset: " + error);
     const store::ObservationKey key{r.dataset_id(), r.view(), r.matcher_id(), r.matcher_version(),
                                     space->canonical_key(full)};

@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -64,7 +65,9 @@ private:
     void reply(const std::string& request_id, const store::Observation& o, bool from_store);
     // An error answer to one requester of a job (the job could not be evaluated).
     void reply_failure(const std::string& request_id, const std::string& error);
-    std::shared_ptr<const dataset::Dataset> dataset(const std::string& id, std::string* error);
+    // The opened dataset; nullptr with `error`, or with *pending while its metadata is still
+    // being fetched in the background (the loop never waits for a transfer).
+    std::shared_ptr<const dataset::Dataset> dataset(const std::string& id, std::string* error, bool* pending);
 
     DatasetMirror& mirror_;
     SampleDbOptions options_;
@@ -73,6 +76,8 @@ private:
     dds::Writer<msg::v1::ObservationReply> replies_;
     dds::Writer<msg::v1::EvaluationTask> tasks_;
     std::map<std::string, std::shared_ptr<const dataset::Dataset>> datasets_;
+    using Opened = std::pair<std::shared_ptr<const dataset::Dataset>, std::string>;  // dataset or error
+    std::map<std::string, std::future<Opened>> opening_;  // metadata fetches in flight, by dataset id
     std::map<std::string, store::ObservationKey> job_keys_;  // scheduler key -> store key
     // Requests waiting for their dataset to be announced, with the time they arrived.
     std::vector<std::pair<double, msg::v1::ObservationRequest>> parked_;
