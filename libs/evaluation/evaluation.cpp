@@ -133,6 +133,17 @@ store::Observation Evaluator::evaluate_cached(store::ObservationStore* db, datas
         }
     }
     if (from_store != nullptr) *from_store = false;
+    if (db != nullptr && !verified_) {
+        // Observations are stored under the manifest's content id: files changed since it was
+        // written would file another dataset's results under it for good. Checked once.
+        std::string recomputed;
+        if (!dataset_.verify(&recomputed)) {
+            throw std::runtime_error(dataset_.dir().string() + ": its files changed since the manifest was written (id " +
+                                     dataset_.manifest().id + ", the files give " + recomputed +
+                                     "): nothing is stored for it; regenerate or re-import the dataset");
+        }
+        verified_ = true;
+    }
     store::Observation obs = evaluate(view, params, stats);
     if (db != nullptr && !store::has_timeouts(obs.pairs)) db->put(obs);
     return obs;

@@ -57,7 +57,8 @@ public:
 
     // Looks the observation up in `db` (when given) and evaluates only when it is absent,
     // storing the result unless a pair timed out (store::has_timeouts). `from_store` tells
-    // which happened.
+    // which happened. Before the first evaluation for a store it verifies the dataset's content
+    // id and throws (naming the directory) when the files changed.
     store::Observation evaluate_cached(store::ObservationStore* db, dataset::View view,
                                        const params::ParameterSet& params,
                                        bool* from_store = nullptr,
@@ -71,6 +72,7 @@ private:
     matcher::Matcher matcher_;
     std::string version_;
     std::map<std::pair<int, int>, std::unique_ptr<dataset::Submap>> submaps_;
+    bool verified_ = false;  // the dataset's files match its content id (checked before storing)
 };
 
 store::PairStatus to_store_status(matcher::MatchStatus status);

@@ -5,6 +5,7 @@
 #include <map>
 
 #include <filesystem>
+#include <fstream>
 
 #include "dataset/simulator.hpp"
 #include "temp_dataset.hpp"
@@ -85,6 +86,26 @@ TEST_F(EvaluationTest, AnswersWithTimeoutsAreNotStored) {
     EXPECT_EQ(db.count(), 0u);
     ev.evaluate_cached(&db, dataset::View::complete, space().defaults(), &from_store);
     EXPECT_FALSE(from_store);
+}
+
+// Issue 12: `evaluate` stored results of a dataset whose files had changed under its content
+// id; now nothing is stored and the error names the directory.
+TEST_F(EvaluationTest, AChangedDatasetIsRefusedBeforeAnythingIsStored) {
+    const fs::path copy = root_ / "changed";
+    fs::copy(root_ / "ds", copy, fs::copy_options::recursive);
+    const dataset::Dataset ds = dataset::Dataset::open(copy);
+    std::ofstream(copy / ds.manifest().runs[0].gt_file, std::ios::app) << "\n";
+    const dataset::Dataset changed = dataset::Dataset::open(copy);
+    Evaluator ev(changed, space());
+    store::ObservationStore db((root_ / "changed.db").string());
+    try {
+        ev.evaluate_cached(&db, dataset::View::subsequent, {});
+        FAIL() << "stored results of a changed dataset";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("changed: its files changed since the manifest"), std::string::npos)
+            << e.what();
+    }
+    EXPECT_EQ(db.count(), 0u);
 }
 
 TEST_F(EvaluationTest, MatcherSettingsArePartOfTheKey) {
