@@ -57,6 +57,12 @@ DatasetMirror::DatasetMirror(dds::Participant& participant, fs::path cache_root,
         }));
 }
 
+void DatasetMirror::interrupt() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    interrupted_ = true;
+    cv_.notify_all();
+}
+
 void DatasetMirror::add_local(const fs::path& dir) {
     const auto ds = dataset::Dataset::open(dir);
     std::lock_guard<std::mutex> lock(mutex_);
@@ -67,8 +73,8 @@ void DatasetMirror::add_local(const fs::path& dir) {
 bool DatasetMirror::wait_for(const std::string& dataset_id, double timeout_s) {
     std::unique_lock<std::mutex> lock(mutex_);
     return cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
-        return announced_.count(dataset_id) || local_.count(dataset_id) || stop_requested();
-    }) && !stop_requested();
+        return announced_.count(dataset_id) || local_.count(dataset_id) || stop_requested() || interrupted_;
+    }) && !stop_requested() && !interrupted_;
 }
 
 std::vector<std::string> DatasetMirror::known() const {
@@ -147,8 +153,9 @@ bool DatasetMirror::fetch(const std::string& dataset_id, const std::vector<std::
                 // restarted, or its reader had not matched our request): ask again under a new
                 // id, so chunks of the lost one are never mixed in.
                 const auto slice = std::min(deadline, std::chrono::steady_clock::now() + kRetry);
-                done = cv_.wait_until(lock, slice, [&] { return transfers_[rid].done || stop_requested(); });
-                if (done || stop_requested() || std::chrono::steady_clock::now() >= deadline) break;
+                done = cv_.wait_until(lock, slice,
+                                      [&] { return transfers_[rid].done || stop_requested() || interrupted_; });
+                if (done || stop_requested() || interrupted_ || std::chrono::steady_clock::now() >= deadline) break;
                 if (transfers_[rid].received != seen) {
                     seen = transfers_[rid].received;
                     continue;

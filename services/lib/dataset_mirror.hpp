@@ -29,6 +29,9 @@ public:
 
     // True once the dataset was announced (or registered locally) within `timeout_s`.
     bool wait_for(const std::string& dataset_id, double timeout_s);
+    // Ends every wait and transfer in progress, now and later (their callers get "timed out"):
+    // for an owner that shuts down while a transfer hangs.
+    void interrupt();
     std::vector<std::string> known() const;
 
     // Makes the dataset's metadata (manifest, trajectories, pair lists: everything but
@@ -61,6 +64,7 @@ private:
     std::string client_id_;
     dds::Writer<msg::v1::FileRequest> requests_;
     mutable std::mutex mutex_;
+    bool interrupted_ = false;
     std::condition_variable cv_;
     std::map<std::string, msg::v1::DatasetAnnouncement> announced_;
     std::map<std::string, std::filesystem::path> local_;

@@ -49,6 +49,9 @@ SampleDb::~SampleDb() {
         cv_.notify_all();
     }
     thread_.join();
+    // A metadata fetch may still hang in the background (a mute dataset_server): end it, so
+    // that shutting down never waits for the dataset timeout.
+    if (!opening_.empty()) mirror_.interrupt();
 }
 
 SampleDbStats SampleDb::stats() const {

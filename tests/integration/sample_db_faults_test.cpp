@@ -5,6 +5,7 @@
 // serve are answered with an error (never FAILED pairs scored as the matcher's answer).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <deque>
 #include <filesystem>
@@ -257,6 +258,144 @@ TEST(DatasetServerFaults, RefusesADatasetWhoseFilesChanged) {
     } catch (const dataset::DatasetError& e) {
         EXPECT_NE(std::string(e.what()).find("files changed since the manifest"), std::string::npos) << e.what();
     }
+    fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace maptune
+
+namespace maptune {
+namespace {
+
+// sample_db's loop used to fetch a dataset's metadata itself, blocking up to its dataset
+// timeout (30 s) while heartbeats, results and every other request waited. A dataset_server
+// that announces a dataset and then never answers must not stop the service.
+TEST(SampleDbFaults, AHungDatasetTransferDoesNotStopOtherRequests) {
+    const fs::path dir = test::make_temp_dir("maptune_sample_db_hung_");
+    const auto shm_before = testing::fastdds_shm_files();
+    const fs::path served = test::generate_tiny_dataset(dir, "served", 1, 2, 5);
+    const fs::path hung = test::generate_tiny_dataset(dir, "hung", 1, 2, 6);
+    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+    const std::string served_id = dataset::Dataset::open(served).manifest().id;
+    const std::string hung_id = dataset::Dataset::open(hung).manifest().id;
+    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    std::mutex m;
+    std::vector<v1::ObservationReply> replies;
+    {
+        // A "dataset_server" that announces `hung` and never sends a chunk.
+        dds::Participant fake_server({domain, "", "maptune_loopback", "mute_server"});
+        auto announce = fake_server.writer<v1::DatasetAnnouncementPubSubType>(dds::topics::kDatasetAnnouncement,
+                                                                              dds::TopicQos::kLatched);
+        v1::DatasetAnnouncement a;
+        a.dataset_id(hung_id);
+        a.name("hung");
+        a.server_id("mute");
+        a.files(services::list_dataset_files(hung));
+        announce.write(a);
+
+        dds::Participant db_p({domain, "", "maptune_loopback", "sample_db"});
+        services::DatasetMirror mirror(db_p, dir / "cache", "sample_db");
+        mirror.add_local(served);
+        services::SampleDbOptions options;
+        options.store_path = (dir / "obs.db").string();
+        options.spaces = {space};
+        options.scheduler.shard_size = 0;
+        services::SampleDb db(db_p, mirror, options);
+        ASSERT_TRUE(poll([&] {
+            const auto known = mirror.known();
+            return std::find(known.begin(), known.end(), hung_id) != known.end();
+        }, 15));
+
+        // A worker that answers every task at once.
+        dds::Participant worker_p({domain, "", "maptune_loopback", "worker"});
+        std::deque<v1::EvaluationTask> queue;
+        const auto tasks_sub = worker_p.reader<v1::EvaluationTaskPubSubType>(
+            dds::topics::kEvaluationTask, dds::TopicQos::kReliable, [&](const v1::EvaluationTask& t) {
+                std::lock_guard<std::mutex> lock(m);
+                queue.push_back(t);
+            });
+        auto results = worker_p.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
+        auto status = worker_p.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
+        dds::Participant client_p({domain, "", "maptune_loopback", "client"});
+        const auto replies_sub = client_p.reader<v1::ObservationReplyPubSubType>(
+            dds::topics::kObservationReply, dds::TopicQos::kReliable, [&](const v1::ObservationReply& r) {
+                std::lock_guard<std::mutex> lock(m);
+                replies.push_back(r);
+            });
+        auto requests = client_p.writer<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest,
+                                                                          dds::TopicQos::kReliable);
+        ASSERT_TRUE(requests.wait_for_readers(1, 15s));
+        std::atomic<bool> stop{false};
+        std::thread worker([&] {
+            double last_beat = -1;
+            std::uint64_t beat = 0;
+            while (!stop) {
+                if (services::now_s() - last_beat > 0.2) {
+                    v1::WorkerStatus ws;
+                    ws.worker_id("w1");
+                    ws.matcher_id("lru_matcher");
+                    ws.matcher_version("test");
+                    ws.space_hash(space.hash());
+                    ws.slots(1);
+                    ws.sequence_number(++beat);
+                    status.write(ws);
+                    last_beat = services::now_s();
+                }
+                std::optional<v1::EvaluationTask> t;
+                {
+                    std::lock_guard<std::mutex> lock(m);
+                    if (!queue.empty()) {
+                        t = queue.front();
+                        queue.pop_front();
+                    }
+                }
+                if (!t) {
+                    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+                    continue;
+                }
+                std::vector<store::PairRecord> pairs(t->pair_ids().size());
+                for (std::size_t i = 0; i < pairs.size(); ++i) pairs[i].pair_id = t->pair_ids()[i];
+                v1::TaskResult res;
+                res.task_id(t->task_id());
+                res.worker_id("w1");
+                res.ok(true);
+                res.pairs(dds::to_msg(pairs));
+                results.write(res);
+            }
+        });
+        auto ask = [&](const std::string& id, const std::string& dataset_id) {
+            v1::ObservationRequest req;
+            req.request_id(id);
+            req.requester("test");
+            req.dataset_id(dataset_id);
+            req.view("complete");
+            req.matcher_id("lru_matcher");
+            req.matcher_version("test");
+            req.space_hash(space.hash());
+            req.params(dds::to_msg(params::ParameterSet{{"r_N", 0.3}}));
+            requests.write(req);
+        };
+        ask("stuck", hung_id);  // its metadata never comes
+        const double asked = services::now_s();
+        ask("fine", served_id);
+        const bool answered = poll([&] {
+            std::lock_guard<std::mutex> lock(m);
+            for (const auto& r : replies) {
+                if (r.request_id() == "fine") return true;
+            }
+            return false;
+        }, 25);
+        const double took = services::now_s() - asked;
+        stop = true;
+        worker.join();
+        ASSERT_TRUE(answered) << "the other request was never answered";
+        // Blocking in the loop would take the whole dataset timeout (30 s); a few seconds is
+        // generous for a loaded CI machine.
+        EXPECT_LT(took, 10.0) << "the loop waited for the hung transfer";
+        std::lock_guard<std::mutex> lock(m);
+        for (const auto& r : replies) EXPECT_NE(r.request_id(), "stuck") << r.error();
+    }
+    testing::remove_orphaned_fastdds_shm(shm_before);
     fs::remove_all(dir);
 }
 
