@@ -50,7 +50,7 @@ for b in "$CLI" "$BIN/maptune_dataset_server" "$BIN/maptune_sample_db" "$BIN/map
 done
 
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/maptune-fault-XXXXXX")
-SHM_BEFORE=$(ls /dev/shm 2>/dev/null | grep '^fastrtps_' | sort || true)
+SHM_BEFORE=$(ls /dev/shm 2>/dev/null | grep -E '^(sem\.)?fastrtps_' | sort || true)
 RANDOM=$SEED  # the kill schedule is reproducible per seed (the moments still depend on timing)
 declare -A PID=() ARGS=()
 
@@ -66,7 +66,7 @@ stop_all() {
 cleanup() {
   stop_all
   # SIGKILLed participants leave their shared-memory segments behind: remove ours.
-  comm -13 <(echo "$SHM_BEFORE") <(ls /dev/shm 2>/dev/null | grep '^fastrtps_' | sort || true) |
+  comm -13 <(echo "$SHM_BEFORE") <(ls /dev/shm 2>/dev/null | grep -E '^(sem\.)?fastrtps_' | sort || true) |
     while read -r f; do [ -n "$f" ] && rm -f "/dev/shm/$f"; done
   if [ "$KEEP" = 1 ]; then echo "fault-test: work directory kept: $WORK"; else rm -rf "$WORK"; fi
 }
