@@ -391,8 +391,7 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
 std::vector<Proposal> Optimizer::ask(int q) {
     std::vector<Proposal> out;
     std::optional<Model> model;
-    const bool any_success = std::any_of(observations_.begin(), observations_.end(),
-                                         [](const Observation& o) { return !o.failed; });
+    const bool any_success = has_success();
     for (int i = 0; i < q; ++i) {
         Proposal proposal;
         Point point;
@@ -478,6 +477,10 @@ void Optimizer::add_observation(const Observation& observation) {
     observations_.push_back(std::move(o));
 }
 
+bool Optimizer::has_success() const {
+    return std::any_of(observations_.begin(), observations_.end(), [](const Observation& o) { return !o.failed; });
+}
+
 void Optimizer::replay(const std::vector<Observation>& history, const std::vector<std::string>& origins) {
     observations_.clear();
     observed_points_.clear();
@@ -490,9 +493,7 @@ void Optimizer::replay(const std::vector<Observation>& history, const std::vecto
         if (origin == "initial") {
             next_design_point();  // advances past what this proposal skipped, as then
         } else if (origin != "start") {
-            const bool any_success = std::any_of(observations_.begin(), observations_.end(),
-                                                 [](const Observation& o) { return !o.failed; });
-            if (any_success) build_model();  // fits when the refit rule said so then
+            if (has_success()) build_model();  // fits when the refit rule said so then
         }
         add_observation(history[k]);
     }

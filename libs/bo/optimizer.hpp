@@ -141,6 +141,7 @@ class Optimizer {
     bool is_taken(const Eigen::VectorXd& g) const;
     bool near_failure(const Eigen::VectorXd& g) const;
     Eigen::VectorXd next_design_point();
+    bool has_success() const;  // some observation did not fail (the model needs one)
     Model build_model();
     // Model inputs and internal values of every observation (failures at the worst value)
     // and the best internal value.

@@ -405,17 +405,18 @@ Submap Dataset::load_submap(int run, int index) const {
                                                " points, manifest says " + std::to_string(s.points));
     }
     out.obstacles = read_points(dir_ / s.obstacles);
+    std::uint64_t h = fnv1a(read_file(dir_ / s.cloud));
+    h = fnv1a(read_file(dir_ / s.obstacles), h);
     if (!s.octomap.empty()) {
         const fs::path bt = dir_ / s.octomap;
         if (!fs::exists(bt)) throw DatasetError(bt, "missing OctoMap file");
-        out.octree = octree_from_bt(read_file(bt), bt.string());
+        const std::string bytes = read_file(bt);  // parsed and hashed from one read
+        out.octree = octree_from_bt(bytes, bt.string());
+        h = fnv1a(bytes, h);
     }
+    out.content_hash = h;
     out.T_world_submap_gt = r.gt[index].T;
     out.T_world_submap_odom = r.odometry[index].T;
-    std::uint64_t h = fnv1a(read_file(dir_ / s.cloud));
-    h = fnv1a(read_file(dir_ / s.obstacles), h);
-    if (!s.octomap.empty()) h = fnv1a(read_file(dir_ / s.octomap), h);
-    out.content_hash = h;
     return out;
 }
 

@@ -146,6 +146,17 @@ std::string set_matcher_setting(MatcherSettings& s, const std::string& key, cons
     return it->second();
 }
 
+std::string set_matcher_settings(MatcherSettings& s, const std::vector<std::string>& key_values) {
+    for (const auto& kv : key_values) {
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos) return "--matcher " + kv + ": expected KEY=VALUE";
+        if (auto err = set_matcher_setting(s, kv.substr(0, eq), kv.substr(eq + 1)); !err.empty()) {
+            return "--matcher " + kv + ": " + err;
+        }
+    }
+    return "";
+}
+
 std::vector<std::string> matcher_setting_names() {
     // The table lives in set_matcher_setting (its lambdas bind the field to set); its error for
     // an unknown key lists every key, so that list is the one source.

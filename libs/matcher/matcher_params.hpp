@@ -128,6 +128,9 @@ std::string feature_settings_fingerprint(const MatcherSettings& settings);
 // and the value ("" when set); unknown keys list the known ones.
 std::string set_matcher_setting(MatcherSettings& settings, const std::string& key,
                                 const std::string& value);
+// Applies "KEY=VALUE" texts in order (`--matcher` of the CLI and the worker). Returns an
+// error naming the text ("--matcher KEY=VALUE: ..."), "" when all were set.
+std::string set_matcher_settings(MatcherSettings& settings, const std::vector<std::string>& key_values);
 // Every key set_matcher_setting accepts (its one table), sorted.
 std::vector<std::string> matcher_setting_names();
 

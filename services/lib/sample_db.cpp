@@ -154,11 +154,7 @@ std::shared_ptr<const dataset::Dataset> SampleDb::dataset(const std::string& id,
 }
 
 void SampleDb::reply_error(const v1::ObservationRequest& r, const std::string& error) {
-    v1::ObservationReply rep;
-    rep.request_id(r.request_id());
-    rep.ok(false);
-    rep.error(error);
-    replies_.write(rep);
+    reply_failure(r.request_id(), error);
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.refused;
 }

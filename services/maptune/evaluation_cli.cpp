@@ -43,12 +43,8 @@ matcher::MatcherSettings matcher_settings(const EvaluationCliOptions& o) {
     s.threads = o.threads;
     s.pair_time_limit_s = o.pair_time_limit_s;
     s.total_time_limit_s = o.total_time_limit_s;
-    for (const auto& kv : o.matcher_overrides) {
-        const auto eq = kv.find('=');
-        if (eq == std::string::npos) throw params::ConfigError("--matcher " + kv + ": expected KEY=VALUE");
-        if (auto err = matcher::set_matcher_setting(s, kv.substr(0, eq), kv.substr(eq + 1)); !err.empty()) {
-            throw params::ConfigError("--matcher " + kv + ": " + err);
-        }
+    if (auto err = matcher::set_matcher_settings(s, o.matcher_overrides); !err.empty()) {
+        throw params::ConfigError(err);
     }
     return s;
 }

@@ -53,12 +53,8 @@ int main(int argc, char** argv) {
                 maptune::experiment::load_experiment(experiment_file));
             settings.threads = threads;  // this machine's cores, not the experiment's
         }
-        for (const auto& kv : overrides) {
-            const auto eq = kv.find('=');
-            const std::string error = eq == std::string::npos
-                                          ? "--matcher " + kv + ": expected KEY=VALUE"
-                                          : maptune::matcher::set_matcher_setting(settings, kv.substr(0, eq), kv.substr(eq + 1));
-            if (!error.empty()) throw maptune::params::ConfigError(error);
+        if (auto err = maptune::matcher::set_matcher_settings(settings, overrides); !err.empty()) {
+            throw maptune::params::ConfigError(err);
         }
         maptune::dds::Participant participant(dds);
         DatasetMirror mirror(participant, cache, options.worker_id.empty() ? make_id("w") : options.worker_id);
