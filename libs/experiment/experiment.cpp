@@ -129,11 +129,34 @@ Experiment load_experiment(const std::string& file) {
     params::check_keys(root, top,
                        {"name", "description", "space", "optimize", "fixed", "dataset", "view",
                         "reference", "measure", "budget", "optimizer", "start_points", "matcher",
-                        "workers", "seeds", "validate"});
+                        "workers", "seeds", "validate", "objective"});
     Experiment e;
     e.file = file;
+    const bool black_box = root["objective"].IsDefined();
     for (const char* required : {"name", "space", "dataset"}) {
+        if (black_box && std::string(required) == "dataset") continue;
         if (!root[required].IsDefined()) top.fail(root, std::string("missing key '") + required + "'");
+    }
+    if (black_box) {
+        for (const char* key : {"dataset", "view", "reference", "measure", "matcher", "validate", "workers"}) {
+            if (root[key].IsDefined()) {
+                top.child(key).fail(root[key], "does not apply to a black-box experiment (one with 'objective')");
+            }
+        }
+        const YamlPath p = top.child("objective");
+        const YAML::Node n = root["objective"];
+        params::require_map(n, p);
+        params::check_keys(n, p, {"command", "direction", "timeout_s", "parallel"});
+        if (!n["command"].IsDefined()) p.fail(n, "missing key 'command'");
+        Experiment::Objective o;
+        o.command = params::read_string(n["command"], p.child("command"));
+        if (o.command.find_first_not_of(" \t") == std::string::npos) p.child("command").fail(n["command"], "empty command");
+        if (n["direction"].IsDefined()) {
+            e.minimize = read_choice(n["direction"], p.child("direction"), {"maximize", "minimize"}) == "minimize";
+        }
+        if (n["timeout_s"].IsDefined()) o.timeout_s = read_range(n["timeout_s"], p.child("timeout_s"), 0, 1e7);
+        if (n["parallel"].IsDefined()) o.parallel = read_int(n["parallel"], p.child("parallel"), 1, 256);
+        e.objective = o;
     }
     e.name = params::read_string(root["name"], top.child("name"));
     e.space_file = resolve(base, params::read_string(root["space"], top.child("space")));
@@ -184,7 +207,7 @@ Experiment load_experiment(const std::string& file) {
         }
     }
 
-    {
+    if (!black_box) {
         DatasetSection d = read_dataset_section(root["dataset"], top.child("dataset"), base);
         e.dataset_dir = d.dir;
         e.generate = d.generate;
@@ -319,7 +342,7 @@ std::vector<double> optimizer_values(const Experiment& e, const params::Paramete
 
 bo::OptimizerOptions optimizer_options(const Experiment& e) {
     bo::OptimizerOptions o;
-    o.direction = bo::Direction::maximize;
+    o.direction = e.minimize ? bo::Direction::minimize : bo::Direction::maximize;
     o.acquisition = *bo::acquisition_from_string(e.acquisition);  // validated on load
     o.ucb_kappa = e.ucb_kappa;
     o.initial_points = e.initial_points;

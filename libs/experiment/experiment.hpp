@@ -74,7 +74,19 @@ struct Experiment {
     std::vector<ValidationTarget> validate;
     // Embedded run: worker processes/threads started by `maptune run`.
     int workers = 1;
+    // A black-box experiment (`objective:`, `maptune optimize`, issue 15): a command evaluates
+    // each set instead of the matcher; there is no dataset, view or measure.
+    struct Objective {
+        std::string command;   // run by /bin/sh -c; the set as JSON on stdin, a number on stdout
+        double timeout_s = 0;  // 0: none
+        int parallel = 1;      // commands at once
+    };
+    std::optional<Objective> objective;
+    bool minimize = false;     // objective.direction: minimize (the matcher's p is maximized)
 };
+
+// Whether objective value a is better than b in the experiment's direction.
+inline bool better(const Experiment& e, double a, double b) { return e.minimize ? a < b : a > b; }
 
 // Loads and checks an experiment; paths inside are relative to the file's directory.
 // Throws params::ConfigError naming the file, line, key path and what was expected.

@@ -124,7 +124,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     std::vector<int> steps;  // every new best-so-far, and the baseline first
     for (std::size_t i = 0; i < trials.size(); ++i) {
         const auto& r = trials[i];
-        if (!r.failed && (best < 0 || r.p > trials[static_cast<std::size_t>(best)].p)) {
+        if (!r.failed && (best < 0 || experiment::better(e, r.p, trials[static_cast<std::size_t>(best)].p))) {
             best = static_cast<int>(i);
             steps.push_back(best);
         }
@@ -156,7 +156,9 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     std::unique_ptr<store::ObservationStore> db;
     const std::string dataset_dir = run.dataset_dir.empty() ? e.dataset_dir : run.dataset_dir;
     const std::string db_path = options.db.empty() ? experiment::run_store_path(run_dir) : options.db;
-    try {
+    if (e.objective) {
+        out["objective"] = {{"command", e.objective->command}, {"minimize", e.minimize}};
+    } else try {
         if (db_path.empty()) throw std::runtime_error("no observation store next to the run (give --db)");
         db = std::make_unique<store::ObservationStore>(db_path);
         ds = dataset::Dataset::open(dataset_dir);

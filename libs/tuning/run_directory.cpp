@@ -1,6 +1,10 @@
 #include "run_directory.hpp"
 
+#include <chrono>
+#include <cstdio>
+#include <ctime>
 #include <fstream>
+#include <random>
 
 #include <yaml-cpp/yaml.h>
 
@@ -18,6 +22,24 @@ std::string fmt(double v, int decimals = 4) { return params::format_fixed(v, dec
 std::string num(double v) { return params::format_double(v); }
 }  // namespace
 
+std::string utc_now(const char* format) {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[64];
+    std::strftime(buf, sizeof(buf), format, &tm);
+    return buf;
+}
+
+std::string new_incarnation_id() {
+    std::random_device rd;
+    const std::uint64_t bits = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^
+                               static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
+    char buf[16];
+    std::snprintf(buf, sizeof(buf), "%012llx", static_cast<unsigned long long>(bits & 0xffffffffffffULL));
+    return buf;
+}
+
 RunDirectory::RunDirectory(fs::path dir, const experiment::Experiment& experiment, RunInfo info)
     : dir_(std::move(dir)), experiment_(experiment), info_(std::move(info)) {
     fs::create_directories(dir_);
@@ -28,8 +50,10 @@ void RunDirectory::write_results(const RunSummary& summary) const {
     dataset::write_file(dir_ / "trials.csv", experiment::trials_csv(summary.evaluations, e.space));
     if (summary.best >= 0) {
         const auto& b = summary.evaluations[static_cast<std::size_t>(summary.best)];
-        const std::string header = "best of experiment " + info_.experiment_id + ": p = " + fmt(b.p) +
-                                   ", m = " + std::to_string(b.m) + " (evaluation " + std::to_string(b.number) + ")";
+        const std::string header =
+            "best of experiment " + info_.experiment_id + ": " +
+            (e.objective ? "value = " + num(b.p) : "p = " + fmt(b.p) + ", m = " + std::to_string(b.m)) +
+            " (evaluation " + std::to_string(b.number) + ")";
         dataset::write_file(dir_ / "best_params.yaml", params::to_plain_yaml(b.params, e.space, header));
         dataset::write_file(dir_ / "best_params.ros2.yaml",
                             "# " + header + "\n" + params::to_ros2_yaml(b.params, e.space, "map_matcher"));
@@ -70,23 +94,32 @@ void RunDirectory::write_record(const RunSummary& summary, const std::optional<R
     std::error_code ec;
     const fs::path file = e.file.empty() ? fs::path() : fs::absolute(e.file, ec).lexically_normal();
     out << YAML::Key << "experiment_file" << YAML::Value << file.string();
-    out << YAML::Key << "dataset" << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "dir" << YAML::Value << fs::absolute(e.dataset_dir, ec).lexically_normal().string();
-    out << YAML::Key << "id" << YAML::Value << info_.dataset_id;
-    out << YAML::Key << "name" << YAML::Value << info_.dataset_name;
-    out << YAML::Key << "view" << YAML::Value << e.view;
-    out << YAML::Key << "reference" << YAML::Value << e.reference;
-    out << YAML::EndMap;
-    out << YAML::Key << "measure" << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "e_star" << YAML::Value << num(e.e_star);
-    out << YAML::Key << "m_star" << YAML::Value << num(summary.m_star);
-    out << YAML::Key << "m_star_rule" << YAML::Value << (e.m_star ? "given" : "auto");
-    out << YAML::Key << "w_v" << YAML::Value << num(e.w_v);
-    out << YAML::EndMap;
-    out << YAML::Key << "matcher" << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "id" << YAML::Value << info_.matcher_id;
-    out << YAML::Key << "version" << YAML::Value << info_.matcher_version;
-    out << YAML::EndMap;
+    if (e.objective) {
+        out << YAML::Key << "objective" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "command" << YAML::Value << e.objective->command;
+        out << YAML::Key << "direction" << YAML::Value << (e.minimize ? "minimize" : "maximize");
+        out << YAML::Key << "timeout_s" << YAML::Value << num(e.objective->timeout_s);
+        out << YAML::Key << "parallel" << YAML::Value << e.objective->parallel;
+        out << YAML::EndMap;
+    } else {
+        out << YAML::Key << "dataset" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "dir" << YAML::Value << fs::absolute(e.dataset_dir, ec).lexically_normal().string();
+        out << YAML::Key << "id" << YAML::Value << info_.dataset_id;
+        out << YAML::Key << "name" << YAML::Value << info_.dataset_name;
+        out << YAML::Key << "view" << YAML::Value << e.view;
+        out << YAML::Key << "reference" << YAML::Value << e.reference;
+        out << YAML::EndMap;
+        out << YAML::Key << "measure" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "e_star" << YAML::Value << num(e.e_star);
+        out << YAML::Key << "m_star" << YAML::Value << num(summary.m_star);
+        out << YAML::Key << "m_star_rule" << YAML::Value << (e.m_star ? "given" : "auto");
+        out << YAML::Key << "w_v" << YAML::Value << num(e.w_v);
+        out << YAML::EndMap;
+        out << YAML::Key << "matcher" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "id" << YAML::Value << info_.matcher_id;
+        out << YAML::Key << "version" << YAML::Value << info_.matcher_version;
+        out << YAML::EndMap;
+    }
     out << YAML::Key << "optimizer" << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "acquisition" << YAML::Value << e.acquisition;
     out << YAML::Key << "seed" << YAML::Value << e.seed;

@@ -26,6 +26,14 @@ struct RunEnd {
     double wall_s = 0;
 };
 
+// Wall-clock time in UTC, by strftime format (default ISO 8601: "2026-12-02T10:31:30Z").
+std::string utc_now(const char* format = "%Y-%m-%dT%H:%M:%SZ");
+
+// A random id for one life of a process (hex, 12 digits): part of every id it hands out
+// (request and task ids), so that answers addressed to an earlier life — before a restart,
+// or to another process of the same name — are recognized as stale, never as current.
+std::string new_incarnation_id();
+
 class RunDirectory {
 public:
     // Creates the directory.

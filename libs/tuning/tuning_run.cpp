@@ -55,7 +55,7 @@ void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
 void TuningRun::add(EvaluationRecord record) {
     summary_.evaluations.push_back(std::move(record));
     const auto& r = summary_.evaluations.back();
-    if (!r.failed && (summary_.best < 0 || r.p > summary_.evaluations[static_cast<std::size_t>(summary_.best)].p)) {
+    if (!r.failed && (summary_.best < 0 || experiment::better(experiment_, r.p, summary_.evaluations[static_cast<std::size_t>(summary_.best)].p))) {
         summary_.best = static_cast<int>(summary_.evaluations.size()) - 1;
     }
 }
@@ -128,7 +128,7 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
     std::string error = reply.ok ? "" : (reply.error.empty() ? std::string("evaluation failed") : reply.error);
     if (error.empty()) {
         try {
-            const measure::Score s = scorer_(reply.pairs);
+            const measure::Score s = reply.score ? *reply.score : scorer_(reply.pairs);
             rec.params = experiment_.space.round(reply.params);
             rec.p = s.p;
             rec.v = s.v;

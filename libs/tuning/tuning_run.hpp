@@ -47,6 +47,7 @@ struct Reply {
     std::string error;                     // why not ok
     params::ParameterSet params;           // the set the answer is for
     std::vector<store::PairRecord> pairs;  // per-pair results of the view
+    std::optional<measure::Score> score;   // given: taken as is (a black-box objective's value as p)
     bool from_store = false;
 };
 

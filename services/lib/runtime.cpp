@@ -1,5 +1,7 @@
 #include "runtime.hpp"
 
+#include "tuning/run_directory.hpp"
+
 #include <unistd.h>
 
 #include <csignal>
@@ -28,14 +30,7 @@ void install_stop_signals() {
     });
 }
 
-std::string utc_now(const char* format) {
-    const std::time_t t = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof(buf), format, &tm);
-    return buf;
-}
+std::string utc_now(const char* format) { return tuning::utc_now(format); }
 
 bool stop_requested() { return g_stop.load(); }
 void request_stop() { g_stop.store(true); }
@@ -44,14 +39,7 @@ double now_s() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-std::string incarnation_id() {
-    std::random_device rd;
-    const std::uint64_t bits = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^
-                               static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
-    char buf[16];
-    std::snprintf(buf, sizeof(buf), "%012llx", static_cast<unsigned long long>(bits & 0xffffffffffffULL));
-    return buf;
-}
+std::string incarnation_id() { return tuning::new_incarnation_id(); }
 
 std::string make_id(const std::string& role) {
     static std::atomic<int> counter{0};

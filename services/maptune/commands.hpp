@@ -12,6 +12,9 @@ void add_params_command(CLI::App& app, int& exit_code);
 #ifdef MAPTUNE_HAVE_BO
 void add_bo_bench_command(CLI::App& app, int& exit_code);
 #endif
+#ifdef MAPTUNE_HAVE_TUNING
+void add_optimize_command(CLI::App& app, int& exit_code);
+#endif
 #ifdef MAPTUNE_HAVE_SERVICES
 void add_run_command(CLI::App& app, int& exit_code);
 void add_watch_command(CLI::App& app, int& exit_code);

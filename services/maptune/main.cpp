@@ -14,6 +14,9 @@ int main(int argc, char** argv) {
 #ifdef MAPTUNE_HAVE_BO
     maptune::cli::add_bo_bench_command(app, exit_code);
 #endif
+#ifdef MAPTUNE_HAVE_TUNING
+    maptune::cli::add_optimize_command(app, exit_code);
+#endif
 #ifdef MAPTUNE_HAVE_SERVICES
     maptune::cli::add_run_command(app, exit_code);
     maptune::cli::add_watch_command(app, exit_code);

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -358,3 +359,40 @@ TEST_F(CliTest, CompareTwoSetsTableJsonAndStore) {
 #endif
 
 }  // namespace
+
+// maptune optimize (issue 15): a command as the objective, minimized, with a failing region;
+// the run directory is written and an existing one resumes.
+TEST_F(CliTest, OptimizeRunsACommandObjectiveAndResumes) {
+    std::ofstream(dir_ / "obj.sh") << "read set\n"
+                                      "t=$(echo \"$set\" | sed 's/.*\"t_C\": *\\([-0-9.e]*\\).*/\\1/')\n"
+                                      "awk -v t=\"$t\" 'BEGIN { if (t > 0.9) exit 5; printf \"%.6f\\n\", (t - 0.3)^2 }'\n";
+    const std::string run = (dir_ / "run").string();
+    const std::string args = "optimize --space configs/spaces/lru_matcher.yaml --optimize t_C --minimize --budget 12 "
+                             "--seed 2 --parallel 2 --timeout 30 --objective-cmd 'sh " + (dir_ / "obj.sh").string() +
+                             "' --run-dir " + run;
+    CliRun r = maptune(args);
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+    EXPECT_NE(r.out.find("evaluation 12/12"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("best: value"), std::string::npos) << r.out;
+    const std::string trials = slurp(fs::path(run) / "trials.csv");
+    EXPECT_EQ(std::count(trials.begin(), trials.end(), '\n'), 13);
+    const std::string best = slurp(fs::path(run) / "best_params.yaml");
+    EXPECT_NE(best.find("value = "), std::string::npos) << best;
+    EXPECT_NE(slurp(fs::path(run) / "run.yaml").find("direction: minimize"), std::string::npos);
+
+    // Resuming with the run's own experiment file and a larger budget in the file.
+    std::string exp = slurp(fs::path(run) / "experiment.yaml");
+    exp.replace(exp.find("evaluations: 12"), 15, "evaluations: 14");
+    std::ofstream(fs::path(run) / "experiment.yaml") << exp;
+    r = maptune("optimize --experiment " + run + "/experiment.yaml --run-dir " + run);
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+    EXPECT_NE(r.out.find("resumed 12 evaluations"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("evaluation 14/14"), std::string::npos) << r.out;
+
+    // A matcher experiment is not a black box; a missing objective is a usage error.
+    r = maptune("optimize --experiment configs/experiments/demo.yaml");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("no 'objective'"), std::string::npos) << r.err;
+    r = maptune("optimize --space configs/spaces/lru_matcher.yaml");
+    EXPECT_EQ(r.exit_code, 2);
+}

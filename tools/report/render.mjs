@@ -34,6 +34,11 @@ const median = (xs) => {
 };
 // Errors span millimetres to wrong matches metres off: a symmetric log axis shows both.
 const ERR_SCALE = { e_t: { type: 'symlog', constant: 0.01 }, e_r_deg: { type: 'symlog', constant: 0.1 } };
+// A black-box run (`maptune optimize`) scores any objective: its value has no [0, 1] range and
+// no matches behind it.
+const blackBox = (run) => !!run.objective;
+const valueName = (run) => (blackBox(run) ? 'value' : 'p');
+const valueScale = (run) => (blackBox(run) ? { zero: false } : { domain: [0, 1] });
 const baselineP = (run) => {
   const e = run.evaluations.find((x) => x.evaluation === run.baseline);
   return e ? e.p : null;
@@ -46,14 +51,15 @@ const baselineP = (run) => {
 function historyFigure() {
   if (runs.length === 1) {
     const run = runs[0];
-    const values = run.evaluations.map((e) => ({ ...e, status: e.failed ? 'failed' : 'ok' }));
+    // A failed black-box evaluation has no value (a matcher's failure scores p = 0).
+    const values = run.evaluations.map((e) => ({ ...e, status: e.failed ? 'failed' : 'ok', p: e.failed && blackBox(run) ? null : e.p }));
     const layers = [
       {
         name: 'history_points',
         mark: { type: 'point', filled: true, size: 45 },
         encoding: {
           x: { field: 'evaluation', type: 'quantitative', title: 'evaluation', axis: { tickMinStep: 1, format: 'd' } },
-          y: { field: 'p', type: 'quantitative', title: 'p', scale: { domain: [0, 1] } },
+          y: { field: 'p', type: 'quantitative', title: valueName(run), scale: valueScale(run) },
           color: { field: 'origin', type: 'nominal', title: 'origin' },
           shape: { field: 'status', type: 'nominal', title: 'status' },
           tooltip: [{ field: 'evaluation' }, { field: 'p', format: '.4f' }, { field: 'm' }, { field: 'origin' }, { field: 'error' }],
@@ -76,7 +82,7 @@ function historyFigure() {
     }
     return {
       $schema: SCHEMA,
-      title: { text: 'p per evaluation', subtitle: 'red: best so far; dashed: baseline (first start point)' },
+      title: { text: `${valueName(run)} per evaluation${blackBox(run) ? ` (${run.objective.minimize ? 'minimized' : 'maximized'})` : ''}`, subtitle: 'red: best so far; dashed: baseline (first start point)' },
       width: 640, height: 260, data: { values }, layer: layers,
     };
   }
@@ -107,7 +113,7 @@ function historyFigure() {
     {
       name: 'history_band', data: { values: band },
       mark: { type: 'area', opacity: 0.2, interpolate: 'step-after' },
-      encoding: { x, y: { field: 'min', type: 'quantitative', title: 'best p so far', scale: { domain: [0, 1] } },
+      encoding: { x, y: { field: 'min', type: 'quantitative', title: `best ${valueName(runs[0])} so far`, scale: valueScale(runs[0]) },
                   y2: { field: 'max' }, color },
     },
     {
@@ -141,6 +147,7 @@ function historyFigure() {
 // The thesis's four-panel best-so-far figure: the share of eps and v in p, m, and the
 // translation and rotation errors of the matched pairs, for the baseline and every new best.
 function progressFigure(run) {
+  if (blackBox(run)) return null;
   if (!run.steps.length) return null;
   const order = run.steps.map((s) => s.label);
   const shares = run.steps.flatMap((s) => [
@@ -184,6 +191,7 @@ function progressFigure(run) {
 
 // Per-pair errors of the baseline and of the best set: boxes over the matched pairs.
 function errorsFigure(run) {
+  if (blackBox(run)) return null;
   if (run.steps.length === 0) return null;
   const first = run.steps[0];
   const last = run.steps[run.steps.length - 1];
@@ -223,7 +231,7 @@ function slicesFigure(run) {
       width: 190, height: 130,
       layer: [
         { name: `slice_${name}_band`, data: { values: line }, mark: { type: 'area', opacity: 0.25, color: '#1f77b4' },
-          encoding: { x: xEnc, y: { field: 'lo', type: 'quantitative', title: 'p' }, y2: { field: 'hi' } } },
+          encoding: { x: xEnc, y: { field: 'lo', type: 'quantitative', title: valueName(run) }, y2: { field: 'hi' } } },
         { name: `slice_${name}_mean`, data: { values: line }, mark: { type: 'line', color: '#1f77b4' },
           encoding: { x: xEnc, y: { field: 'mean', type: 'quantitative' } } },
         { name: `slice_${name}_observations`, data: { values: obs }, mark: { type: 'point', size: 14, color: 'black', opacity: 0.6 },
@@ -322,17 +330,23 @@ function importanceFigure(run) {
 
 function metadataTable(run) {
   const r = run.record || {};
-  const rows = [
+  const v = valueName(run);
+  const rows = blackBox(run) ? [
+    ['experiment', `${r.experiment ?? ''} (${r.experiment_file ?? ''})`],
+    ['objective', `${r.objective?.direction ?? ''} \`${r.objective?.command ?? ''}\` (${r.objective?.parallel ?? 1} at once${r.objective?.timeout_s ? `, timeout ${r.objective.timeout_s} s` : ''})`],
+  ] : [
     ['experiment', `${r.experiment ?? ''} (${r.experiment_file ?? ''})`],
     ['dataset', `${r.dataset?.name ?? ''} ${r.dataset?.id ?? ''} — ${r.dataset?.view ?? ''}/${r.dataset?.reference ?? ''} (${r.dataset?.dir ?? ''})`],
     ['measure', `e* ${run.measure.e_star}, m* ${fmt(run.measure.m_star, 1)} (${r.measure?.m_star_rule ?? ''}), w_v ${run.measure.w_v}`],
     ['matcher', `${r.matcher?.id ?? ''} ${r.matcher?.version ?? ''}`],
+  ];
+  rows.push(
     ['optimizer', `${r.optimizer?.acquisition ?? ''}, seed ${r.optimizer?.seed ?? ''}, optimizing ${(r.optimizer?.optimize ?? []).join(', ')}`],
     ['budget', `${r.budget?.evaluations ?? ''} evaluations${r.budget?.seconds ? `, ${r.budget.seconds} s` : ''}`],
     ['ran', `${r.started_utc ?? ''} → ${r.finished_utc ?? '(running)'}, ${r.wall_s ?? '?'} s, ${run.evaluations.length} evaluations, ${r.stop_reason ?? r.state ?? ''}`],
-    ['best', run.best !== null ? `p ${fmt(run.evaluations.find((e) => e.evaluation === run.best)?.p, 4)} at evaluation ${run.best}` : 'none'],
-    ['baseline', run.baseline !== null ? `p ${fmt(baselineP(run), 4)} at evaluation ${run.baseline}` : 'no start point evaluated'],
-  ];
+    ['best', run.best !== null ? `${v} ${fmt(run.evaluations.find((e) => e.evaluation === run.best)?.p, 4)} at evaluation ${run.best}` : 'none'],
+    ['baseline', run.baseline !== null ? `${v} ${fmt(baselineP(run), 4)} at evaluation ${run.baseline}` : 'no start point evaluated'],
+  );
   return `<table class="meta">${rows.map(([k, v]) => `<tr><th>${esc(k)}</th><td>${esc(v)}</td></tr>`).join('')}</table>`;
 }
 
@@ -400,9 +414,10 @@ const title = runs.length ? `maptune report — ${esc(runs[0].record?.experiment
 const sections = runs.map((run, i) => {
   const k = runs.length > 1 ? `run${i + 1}-` : '';
   const notes = (run.notes || []).map((n) => `<li>${esc(n)}</li>`).join('');
+  const matcherParts = blackBox(run) ? '' : `<h3>Validation on held-out views</h3>${validationTable(run)}
+<h3>Best so far</h3>${figureDiv(`${k}progress`)}${figureDiv(`${k}errors`)}`;
   return `<section class="run"><h2>${esc(run.name)}</h2>${metadataTable(run)}
-<h3>Validation on held-out views</h3>${validationTable(run)}
-<h3>Best so far</h3>${figureDiv(`${k}progress`)}${figureDiv(`${k}errors`)}
+${matcherParts}
 <h3>The model</h3>${figureDiv(`${k}slices`)}${figureDiv(`${k}grid`)}${figureDiv(`${k}importance`)}
 <h3>All evaluations</h3>${figureDiv(`${k}parallel`)}
 ${notes ? `<ul class="notes">${notes}</ul>` : ''}</section>`;
