@@ -83,8 +83,82 @@ TestFunction log_rosenbrock(int dim) {
     return fn;
 }
 
+namespace {
+TestFunction box(const std::string& name, int dim, double low, double high, double minimum,
+                 std::function<double(const std::vector<double>&)> f) {
+    TestFunction fn;
+    fn.name = name + std::to_string(dim);
+    for (int j = 0; j < dim; ++j) fn.space.push_back({"x" + std::to_string(j + 1), low, high, false, false});
+    fn.minimum = minimum;
+    fn.f = std::move(f);
+    return fn;
+}
+}  // namespace
+
+TestFunction rosenbrock(int dim) {
+    return box("rosenbrock", dim, -2.0, 2.0, 0.0, [](const std::vector<double>& x) {
+        double f = 0.0;
+        for (std::size_t j = 0; j + 1 < x.size(); ++j) {
+            const double d = x[j + 1] - x[j] * x[j];
+            f += 100.0 * d * d + (1.0 - x[j]) * (1.0 - x[j]);
+        }
+        return f;
+    });
+}
+
+TestFunction levy(int dim) {
+    return box("levy", dim, -10.0, 10.0, 0.0, [](const std::vector<double>& x) {
+        const std::size_t d = x.size();
+        auto w = [&](std::size_t i) { return 1.0 + (x[i] - 1.0) / 4.0; };
+        const double s0 = std::sin(M_PI * w(0));
+        double f = s0 * s0;
+        for (std::size_t i = 0; i + 1 < d; ++i) {
+            const double s = std::sin(M_PI * w(i) + 1.0);
+            f += (w(i) - 1.0) * (w(i) - 1.0) * (1.0 + 10.0 * s * s);
+        }
+        const double sd = std::sin(2.0 * M_PI * w(d - 1));
+        return f + (w(d - 1) - 1.0) * (w(d - 1) - 1.0) * (1.0 + sd * sd);
+    });
+}
+
+TestFunction ackley(int dim) {
+    // An asymmetric box: the optimum (0) is not the centre a quasi-random design starts at.
+    return box("ackley", dim, -10.0, 30.0, 0.0, [](const std::vector<double>& x) {
+        double sq = 0.0, cs = 0.0;
+        for (double v : x) {
+            sq += v * v;
+            cs += std::cos(2.0 * M_PI * v);
+        }
+        const double n = static_cast<double>(x.size());
+        return -20.0 * std::exp(-0.2 * std::sqrt(sq / n)) - std::exp(cs / n) + 20.0 + M_E;
+    });
+}
+
+TestFunction styblinski_tang(int dim) {
+    return box("styblinski_tang", dim, -5.0, 5.0, -39.16616570377142 * dim, [](const std::vector<double>& x) {
+        double f = 0.0;
+        for (double v : x) f += v * v * v * v - 16.0 * v * v + 5.0 * v;
+        return 0.5 * f;
+    });
+}
+
+TestFunction ellipsoid(int dim) {
+    // Axis scales 1 .. 1e3 (condition number 1e6) on a shifted box: ill-conditioned.
+    return box("ellipsoid", dim, -3.0, 7.0, 0.0, [](const std::vector<double>& x) {
+        const double d = static_cast<double>(x.size());
+        double f = 0.0;
+        for (std::size_t i = 0; i < x.size(); ++i) {
+            const double c = std::pow(10.0, 6.0 * static_cast<double>(i) / std::max(1.0, d - 1.0));
+            const double v = x[i] - 1.0;
+            f += c * v * v;
+        }
+        return f;
+    });
+}
+
 std::vector<std::string> test_function_names() {
-    return {"branin", "hartmann6", "branin_integer", "log_rosenbrock9"};
+    return {"branin", "hartmann6", "branin_integer", "log_rosenbrock9", "rosenbrock9", "levy9",
+            "ackley9", "styblinski_tang9", "ellipsoid9"};
 }
 
 std::optional<TestFunction> test_function(const std::string& name) {
@@ -92,6 +166,11 @@ std::optional<TestFunction> test_function(const std::string& name) {
     if (name == "hartmann6") return hartmann6();
     if (name == "branin_integer") return branin_integer();
     if (name == "log_rosenbrock9") return log_rosenbrock(9);
+    if (name == "rosenbrock9") return rosenbrock(9);
+    if (name == "levy9") return levy(9);
+    if (name == "ackley9") return ackley(9);
+    if (name == "styblinski_tang9") return styblinski_tang(9);
+    if (name == "ellipsoid9") return ellipsoid(9);
     return std::nullopt;
 }
 

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <set>
 
+#include "gp/cholesky.hpp"
 #include "params/yaml_util.hpp"
 
 namespace maptune::experiment {
@@ -240,7 +241,20 @@ Experiment load_experiment(const std::string& file) {
     if (root["optimizer"].IsDefined()) {
         const YamlPath p = top.child("optimizer");
         const YAML::Node n = root["optimizer"];
-        params::check_keys(n, p, {"acquisition", "ucb_kappa", "initial_points", "seed", "batch"});
+        params::check_keys(n, p, {"acquisition", "ucb_kappa", "initial_points", "seed", "batch", "warping", "search",
+                                  "cholesky"});
+        if (n["warping"].IsDefined()) {
+            e.warping = read_choice(n["warping"], p.child("warping"), {"none", "log", "copula", "automatic"});
+        }
+        if (n["search"].IsDefined()) {
+            e.search = read_choice(n["search"], p.child("search"), {"global", "trust_region", "alternate"});
+        }
+        if (n["cholesky"].IsDefined()) {
+            e.cholesky = read_choice(n["cholesky"], p.child("cholesky"), {"eigen", "cholmod"});
+            if (e.cholesky == "cholmod" && !gp::cholmod_available()) {
+                p.child("cholesky").fail(n["cholesky"], "this build has no CHOLMOD (SuiteSparse not found at build time)");
+            }
+        }
         if (n["acquisition"].IsDefined()) {
             e.acquisition = read_choice(n["acquisition"], p.child("acquisition"),
                                         {"ucb", "ucb_schedule", "ei", "log_ei"});
@@ -347,6 +361,14 @@ bo::OptimizerOptions optimizer_options(const Experiment& e) {
     o.ucb_kappa = e.ucb_kappa;
     o.initial_points = e.initial_points;
     o.seed = e.seed;
+    o.warping = e.warping == "none"     ? bo::OutputWarping::none
+                : e.warping == "log"    ? bo::OutputWarping::log
+                : e.warping == "copula" ? bo::OutputWarping::copula
+                                        : bo::OutputWarping::automatic;
+    o.search = e.search == "global"         ? bo::SearchRegion::global
+               : e.search == "trust_region" ? bo::SearchRegion::trust_region
+                                            : bo::SearchRegion::alternate;
+    o.gp.backend = e.cholesky == "cholmod" ? gp::CholeskyBackend::cholmod : gp::CholeskyBackend::eigen;
     return o;
 }
 

@@ -56,6 +56,9 @@ struct Experiment {
     std::uint64_t seed = 1;
     std::vector<std::uint64_t> seeds;        // repeats (`seeds: [1, 2, 3]`); empty: just `seed`
     int batch = 0;                           // proposals in flight; 0 = one per free worker slot
+    std::string warping = "automatic";       // none | log | copula | automatic (docs/optimizer.md)
+    std::string search = "alternate";        // global | trust_region | alternate
+    std::string cholesky = "eigen";          // eigen | cholmod (the GP's factorization)
     std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline
     std::vector<std::string> start_point_files;
     // Non-optimized matcher settings.

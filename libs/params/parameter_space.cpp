@@ -44,7 +44,7 @@ ParameterSpace parse_space(const YAML::Node& root, const std::string& source) {
         s.name = kv.first.as<std::string>();
         const YamlPath p = params_path.child(s.name);
         const YAML::Node& n = kv.second;
-        check_keys(n, p, {"type", "low", "high", "default", "unit", "description", "log_scale"});
+        check_keys(n, p, {"type", "low", "high", "default", "unit", "description", "log_scale", "decimals"});
         for (const char* required : {"type", "low", "high", "default"}) {
             if (!n[required].IsDefined()) p.fail(n, std::string("missing key '") + required + "'");
         }
@@ -64,6 +64,16 @@ ParameterSpace parse_space(const YAML::Node& root, const std::string& source) {
             s.description = read_string(n["description"], p.child("description"));
         }
         if (n["log_scale"].IsDefined()) s.log_scale = read_bool(n["log_scale"], p.child("log_scale"));
+        if (n["decimals"].IsDefined()) {
+            const double d = read_finite_double(n["decimals"], p.child("decimals"));
+            if (!is_integral(d) || d < 0 || d > 12) p.child("decimals").fail(n["decimals"], "expected an integer in 0..12");
+            if (s.type == ParamType::kInt) p.child("decimals").fail(n["decimals"], "only for float parameters");
+            s.decimals = static_cast<int>(d);
+            // Rounding works on value x 10^decimals as a 64-bit integer.
+            if (std::max(std::fabs(s.low), std::fabs(s.high)) * std::pow(10.0, s.decimals) > 1e18) {
+                p.child("decimals").fail(n["decimals"], "too many decimals for bounds this large");
+            }
+        }
         if (s.low > s.high) {
             p.fail(n, "low " + format_double(s.low) + " > high " + format_double(s.high));
         }
@@ -189,7 +199,7 @@ ParameterSet ParameterSpace::round(const ParameterSet& set) const {
     for (const auto& [name, value] : set) {
         const ParameterSpec* spec = find(name);
         const bool is_int = spec != nullptr && spec->type == ParamType::kInt;
-        out.set(name, is_int ? std::round(value) : std::stod(format_fixed(value, 2)));
+        out.set(name, is_int ? std::round(value) : std::stod(format_fixed(value, spec ? spec->decimals : 2)));
     }
     return out;
 }
@@ -200,7 +210,7 @@ std::string ParameterSpace::canonical_key(const ParameterSet& set) const {
         const ParameterSpec* spec = find(name);
         const bool is_int = spec != nullptr && spec->type == ParamType::kInt;
         if (!key.empty()) key += ';';
-        key += name + "=" + format_fixed(value, is_int ? 0 : 2);
+        key += name + "=" + format_fixed(value, is_int ? 0 : (spec ? spec->decimals : 2));
     }
     return key;
 }
@@ -210,7 +220,7 @@ std::string ParameterSpace::hash() const {
     for (const auto& s : specs_) {
         text += "|" + s.name + ":" + type_name(s.type) + ":" + format_double(s.low) + ":" +
                 format_double(s.high) + ":" + format_double(s.default_value) +
-                (s.log_scale ? ":log" : "");
+                (s.log_scale ? ":log" : "") + (s.decimals != 2 ? ":d" + std::to_string(s.decimals) : "");
     }
     std::uint64_t h = 1469598103934665603ULL;
     for (unsigned char c : text) {

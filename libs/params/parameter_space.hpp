@@ -19,6 +19,9 @@ struct ParameterSpec {
     std::string unit;         // e.g. "m", "" for dimensionless
     std::string description;
     bool log_scale = false;   // optimizer searches log(value); requires low > 0
+    // Floats are rounded to this many decimals before evaluation and in store keys (the
+    // thesis's matcher resolution is 0.01; a black-box space may need more, `decimals: 6`).
+    int decimals = 2;
 };
 
 class ParameterSet;

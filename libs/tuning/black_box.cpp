@@ -62,6 +62,9 @@ std::string write_black_box_experiment(const fs::path& run_dir, const BlackBoxSp
     out << YAML::Key << "acquisition" << YAML::Value << spec.acquisition;
     out << YAML::Key << "seed" << YAML::Value << spec.seed;
     out << YAML::Key << "initial_points" << YAML::Value << spec.initial_points;
+    out << YAML::Key << "warping" << YAML::Value << spec.warping;
+    out << YAML::Key << "search" << YAML::Value << spec.search;
+    out << YAML::Key << "cholesky" << YAML::Value << spec.cholesky;
     out << YAML::EndMap;
     std::vector<std::pair<fs::path, std::string>> starts;
     if (!spec.start_points.empty()) {

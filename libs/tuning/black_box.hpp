@@ -29,6 +29,7 @@ struct BlackBoxSpec {
     std::uint64_t seed = 1;
     std::string acquisition = "log_ei";
     int initial_points = 0;
+    std::string warping = "automatic", search = "alternate", cholesky = "eigen";
     std::vector<std::string> start_points;  // parameter set YAML files
 };
 

@@ -123,6 +123,9 @@ void RunDirectory::write_record(const RunSummary& summary, const std::optional<R
     out << YAML::Key << "optimizer" << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "acquisition" << YAML::Value << e.acquisition;
     out << YAML::Key << "seed" << YAML::Value << e.seed;
+    out << YAML::Key << "warping" << YAML::Value << e.warping;
+    out << YAML::Key << "search" << YAML::Value << e.search;
+    out << YAML::Key << "cholesky" << YAML::Value << e.cholesky;
     out << YAML::Key << "optimize" << YAML::Value << YAML::Flow << e.optimize;
     out << YAML::EndMap;
     out << YAML::Key << "budget" << YAML::Value << YAML::BeginMap;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <memory>
 #include <sstream>
 
@@ -28,13 +29,16 @@ struct BoBenchOptions {
     int candidates = 2000;
     double refit_growth = 0.05;
     int fit_random_starts = 2;
-    std::string warping = "none";
+    std::string warping = "automatic";
+    std::string search = "alternate";
     int threads = 0;
     bool timing = false;
     bool no_regret = false;
     std::string json;
     std::string csv;
     std::string curves_csv;
+    std::string eval;         // evaluate this function at the JSON set on stdin (an objective command)
+    std::string write_space;  // write this function's design space YAML
 };
 
 std::string fmt(double v, const char* spec = "%.3g") {
@@ -44,7 +48,47 @@ std::string fmt(double v, const char* spec = "%.3g") {
     return buf;
 }
 
+// `maptune bo-bench --eval F`: the test function as an objective command for `maptune optimize`
+// and for other optimizers driven through the same command (bench/optimize/compare.py).
+int eval_function(const std::string& name) {
+    const auto fn = bo::test_function(name);
+    std::string text((std::istreambuf_iterator<char>(std::cin)), std::istreambuf_iterator<char>());
+    const auto j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+        std::cerr << "bo-bench --eval " << name << ": standard input is not a JSON object\n";
+        return 2;
+    }
+    std::vector<double> x;
+    for (const auto& s : fn->space) {
+        const auto it = j.find(s.name);
+        if (it == j.end() || !it->is_number()) {
+            std::cerr << "bo-bench --eval " << name << ": no number '" << s.name << "' in the input\n";
+            return 2;
+        }
+        x.push_back(it->get<double>());
+    }
+    std::printf("%.17g\n", fn->f(x));
+    return 0;
+}
+
+// The function's box as a design space YAML on stdout (6 decimals: the functions are continuous).
+int write_function_space(const std::string& name) {
+    const auto fn = bo::test_function(name);
+    std::ostream& out = std::cout;
+    out << "# " << name << " (maptune bo-bench --write-space); minimum " << fmt(fn->minimum, "%.17g") << "\n"
+        << "name: " << name << "\nparameters:\n";
+    for (const auto& s : fn->space) {
+        out << "  " << s.name << ": {type: " << (s.is_integer ? "int" : "float") << ", low: " << fmt(s.low, "%.17g")
+            << ", high: " << fmt(s.high, "%.17g") << ", default: " << fmt(s.is_integer ? std::round((s.low + s.high) / 2) : (s.low + s.high) / 2, "%.17g")
+            << (s.is_integer ? "" : ", decimals: 6") << "}\n";
+    }
+    return out ? 0 : 1;
+}
+
+
 int run_bo_bench(const BoBenchOptions& o) {
+    if (!o.eval.empty()) return eval_function(o.eval);
+    if (!o.write_space.empty()) return write_function_space(o.write_space);
     nlohmann::json report;
     report["regret"] = nlohmann::json::array();
     report["timing"] = nlohmann::json::array();
@@ -67,9 +111,14 @@ int run_bo_bench(const BoBenchOptions& o) {
                     options.ucb_kappa = o.kappa;
                     options.candidates = o.candidates;
                     options.refit_growth = o.refit_growth;
-                    options.warping =
-                        o.warping == "copula" ? bo::OutputWarping::copula : bo::OutputWarping::none;
+                    options.warping = o.warping == "copula"      ? bo::OutputWarping::copula
+                                      : o.warping == "log"       ? bo::OutputWarping::log
+                                      : o.warping == "automatic" ? bo::OutputWarping::automatic
+                                                                 : bo::OutputWarping::none;
                     options.gp.fit.random_starts = o.fit_random_starts;
+                    options.search = o.search == "global"         ? bo::SearchRegion::global
+                                     : o.search == "trust_region" ? bo::SearchRegion::trust_region
+                                                                  : bo::SearchRegion::alternate;
                     options.gp.threads = o.threads;
                     std::vector<bo::RegretRun> runs;
                     for (int s = 0; s < o.seeds; ++s) {
@@ -227,8 +276,11 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
                     "random L-BFGS-B starts of each hyperparameter fit, 0..20 (default: 2)")
         ->check(CLI::Range(0, 20));
     cmd->add_option("--warping", opt->warping,
-                    "output warping before the GP: none | copula (default: none)")
-        ->check(CLI::IsMember({"none", "copula"}));
+                    "output warping before the GP: none | copula | log | automatic (default: automatic)")
+        ->check(CLI::IsMember({"none", "copula", "log", "automatic"}));
+    cmd->add_option("--search", opt->search,
+                    "where proposals are searched: global | trust_region | alternate (default: alternate)")
+        ->check(CLI::IsMember({"global", "trust_region", "alternate"}));
     cmd->add_option("--threads", opt->threads,
                     "threads inside the GP's batched prediction and fit and the acquisition "
                     "polish, 0..64; 0 = the hardware's, at most 4 (default: 0)")
@@ -245,6 +297,12 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
     cmd->add_option(
         "--curves-csv", opt->curves_csv,
         "write the median regret after every evaluation as CSV to this file (default: none)");
+    cmd->add_option("--eval", opt->eval,
+                    "evaluate FUNCTION at the JSON object {x1: .., x2: ..} on standard input and print its value "
+                    "(an objective command for `maptune optimize` and other optimizers)")
+        ->check(CLI::IsMember(fn_names));
+    cmd->add_option("--write-space", opt->write_space, "print FUNCTION's box as a design space YAML")
+        ->check(CLI::IsMember(fn_names));
     cmd->callback([opt, &exit_code] { exit_code = run_bo_bench(*opt); });
 }
 

@@ -90,6 +90,12 @@ void add_optimize_command(CLI::App& app, int& exit_code) {
         ->delimiter(',');
     cmd->add_option("--acquisition", o->spec.acquisition, "log_ei | ei | ucb | ucb_schedule")
         ->check(CLI::IsMember({"log_ei", "ei", "ucb", "ucb_schedule"}));
+    cmd->add_option("--warping", o->spec.warping, "output warping: automatic | none | log | copula")
+        ->check(CLI::IsMember({"automatic", "none", "log", "copula"}));
+    cmd->add_option("--search", o->spec.search, "proposal search: alternate | trust_region | global")
+        ->check(CLI::IsMember({"alternate", "trust_region", "global"}));
+    cmd->add_option("--cholesky", o->spec.cholesky, "GP factorization: eigen | cholmod")
+        ->check(CLI::IsMember({"eigen", "cholmod"}));
     cmd->add_option("--initial-points", o->spec.initial_points, "quasi-random design size (0: max(5, 2 d))")
         ->check(CLI::Range(0, 10000));
     cmd->add_option("--start", o->spec.start_points, "parameter set YAML evaluated first (repeatable)")

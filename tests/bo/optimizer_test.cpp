@@ -57,6 +57,60 @@ TEST(OptimizerTest, ThreadCountDoesNotChangeProposals) {
     EXPECT_EQ(a.hyperparameters().to_log(), b.hyperparameters().to_log());
 }
 
+// Issue 15: the warping is chosen by marginal likelihood — the log for values over orders of
+// magnitude — and the model's predictions map back to the objective's units.
+TEST(OptimizerTest, AutomaticWarpingPicksTheLogForValuesOverOrdersOfMagnitude) {
+    const TestFunction fn = ellipsoid(9);  // 0 .. 3e7
+    Optimizer opt(fn.space, fast_options(3));
+    run(opt, fn, 60, 1);
+    EXPECT_EQ(opt.warping_in_use().rfind("log", 0), 0u) << opt.warping_in_use();
+    const auto best = opt.best();
+    ASSERT_TRUE(best);
+    const auto post = opt.posterior({best->values});
+    ASSERT_EQ(post.size(), 1u);
+    // At an observation the posterior mean is the value itself up to the model's noise.
+    EXPECT_NEAR(post[0].mean, best->value, 0.2 * std::max(1.0, std::fabs(best->value))) << best->value;
+    const auto pb = opt.predicted_best();
+    ASSERT_TRUE(pb);
+    EXPECT_GT(pb->mean, 0.0);                  // never below the function's minimum by much
+    EXPECT_LT(pb->mean, 3.0 * best->value + 1.0);  // and in the units of the values
+    EXPECT_EQ(opt.warping_in_use() == "none", false);
+
+    // A fixed warping is reported as such.
+    OptimizerOptions none = fast_options(3);
+    none.warping = OutputWarping::none;
+    Optimizer plain(fn.space, none);
+    run(plain, fn, 25, 1);
+    EXPECT_EQ(plain.warping_in_use(), "none");
+}
+
+// The trust region halves after max(4, d) proposals without improvement and its proposals
+// stay inside it (search: trust_region).
+TEST(OptimizerTest, TrustRegionShrinksWithoutImprovementAndHoldsItsProposals) {
+    const std::vector<ParameterSpec> specs = {{"x1", 0, 1}, {"x2", 0, 1}, {"x3", 0, 1}};
+    OptimizerOptions o = fast_options(2);
+    o.direction = Direction::maximize;
+    o.search = SearchRegion::trust_region;
+    o.initial_points = 6;
+    Optimizer opt(specs, o);
+    // A flat objective after the design: nothing ever improves.
+    for (int i = 0; i < 6; ++i) {
+        const auto p = opt.ask(1)[0];
+        opt.tell(p.id, -static_cast<double>(i));  // the first design point stays the best
+    }
+    EXPECT_DOUBLE_EQ(opt.trust_region_side(), 0.8);
+    const auto centre = opt.best()->values;
+    for (int i = 0; i < 8; ++i) {
+        const auto p = opt.ask(1)[0];
+        for (std::size_t j = 0; j < 3; ++j) {
+            // Length scales weight the sides (geometric mean = side), so allow the widest one.
+            EXPECT_LE(std::fabs(p.values[j] - centre[j]), 0.5 + 1e-9) << i;
+        }
+        opt.tell(p.id, -10.0);
+    }
+    EXPECT_DOUBLE_EQ(opt.trust_region_side(), 0.2);  // 8 failures, tolerance 4: halved twice
+}
+
 TEST(OptimizerTest, FindsBraninMinimum) {
     const TestFunction fn = branin();
     Optimizer opt(fn.space, fast_options(1));

@@ -129,6 +129,19 @@ TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
     EXPECT_FALSE(e.generate.has_value());
     EXPECT_TRUE(e.seeds.empty());
     EXPECT_TRUE(e.validate.empty());
+    // Issue 15: the optimizer's defaults, and each choice reaching the optimizer's options.
+    EXPECT_EQ(optimizer_options(e).warping, bo::OutputWarping::automatic);
+    EXPECT_EQ(optimizer_options(e).search, bo::SearchRegion::alternate);
+    EXPECT_EQ(optimizer_options(e).gp.backend, gp::CholeskyBackend::eigen);
+    const Experiment f = load_experiment(
+        write("name: d\nspace: space.yaml\ndataset: ds\noptimizer: {warping: none, search: global}\n"));
+    EXPECT_EQ(optimizer_options(f).warping, bo::OutputWarping::none);
+    EXPECT_EQ(optimizer_options(f).search, bo::SearchRegion::global);
+    if (gp::cholmod_available()) {
+        const Experiment g =
+            load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\noptimizer: {cholesky: cholmod}\n"));
+        EXPECT_EQ(optimizer_options(g).gp.backend, gp::CholeskyBackend::cholmod);
+    }
 }
 
 TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
@@ -141,6 +154,9 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "measure: {e_star: 0.01}\n", "measure.e_star: expected a number in");
     expect_error(head + "budget: {evaluations: 2.5}\n", "budget.evaluations: expected an integer");
     expect_error(head + "optimizer: {acquisition: pi}\n", "optimizer.acquisition: expected one of");
+    expect_error(head + "optimizer: {warping: boxcox}\n", "optimizer.warping: expected one of");
+    expect_error(head + "optimizer: {search: local}\n", "optimizer.search: expected one of");
+    expect_error(head + "optimizer: {cholesky: lapack}\n", "optimizer.cholesky: expected one of");
     expect_error(head + "start_points: [missing.yaml]\n", "start_points[0]: ");
     expect_error(head + "colour: blue\n", "exp.yaml:4: colour: unknown key");
     expect_error(head + "seeds: [1, 2, 1]\n", "seeds[2]: seed 1 listed twice");
