@@ -68,6 +68,12 @@ struct GpTiming {
     double fit_cpu_seconds = 0.0;
     double fit_full_seconds = 0.0;  // fit on all n points (no subset), 0 if skipped
     int fit_evaluations = 0;
+    // Accuracy of the fits: the full data's negative log posterior at each fit's optimum
+    // (standardized outputs; lower is better), when full_fit.
+    double fit_nlp = 0.0;               // default: subset multi-start + full-data refinement
+    double fit_subset_seconds = 0.0;    // subset only (full_data_refine = false)
+    double fit_subset_nlp = 0.0;
+    double fit_full_nlp = 0.0;          // multi-start on all n points
     double predict_seconds = 0.0;  // mean + variance at predict_points
     double predict_cpu_seconds = 0.0;
     int predict_points = 0;

@@ -152,35 +152,32 @@ Eigen::VectorXd Optimizer::next_design_point() {
 
 void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best, Eigen::VectorXd* raw) const {
     const int d = space_.dim();
-    std::vector<std::size_t> ok, failed;
-    for (std::size_t i = 0; i < observations_.size(); ++i) {
-        (observations_[i].failed ? failed : ok).push_back(i);
-    }
     double worst = std::numeric_limits<double>::infinity();
     best = -std::numeric_limits<double>::infinity();
-    for (std::size_t i : ok) {
-        worst = std::min(worst, internal(observations_[i].value));
-        best = std::max(best, internal(observations_[i].value));
+    for (const Observation& o : observations_) {
+        if (o.failed) continue;
+        worst = std::min(worst, internal(o.value));
+        best = std::max(best, internal(o.value));
     }
-    // Failures enter the model at the worst observed value so that the surrogate itself
+    // In observation order, so that the data only ever grows at the end (the cached factor
+    // takes appends). Failures enter at the worst observed value so that the surrogate itself
     // steers away from their region (besides the hard exclusion radius).
-    const auto n = static_cast<Eigen::Index>(ok.size() + failed.size());
+    const auto n = static_cast<Eigen::Index>(observations_.size());
     x.resize(d, n);
     y.resize(n);
-    Eigen::Index k = 0;
-    for (std::size_t i : ok) {
+    for (Eigen::Index k = 0; k < n; ++k) {
+        const auto i = static_cast<std::size_t>(k);
         x.col(k) = observed_points_[i].g;
-        y(k++) = internal(observations_[i].value);
-    }
-    for (std::size_t i : failed) {
-        x.col(k) = observed_points_[i].g;
-        y(k++) = worst;
+        y(k) = observations_[i].failed ? worst : internal(observations_[i].value);
     }
 
     if (raw) *raw = y;
     if (options_.warping == OutputWarping::copula && n > 0) {
         y = copula(y);
-        best = y.head(static_cast<Eigen::Index>(ok.size())).maxCoeff();
+        best = -std::numeric_limits<double>::infinity();
+        for (Eigen::Index k = 0; k < n; ++k) {
+            if (!observations_[static_cast<std::size_t>(k)].failed) best = std::max(best, y(k));
+        }
     }
     const double alpha = options_.warping == OutputWarping::log ? 0.1
                          : options_.warping == OutputWarping::automatic ? warp_alpha_ : 0.0;
@@ -315,14 +312,27 @@ Optimizer::Model Optimizer::build_model() {
     // After the first fit the previous optimum is a good start; the fixed one only costs time.
     if (last_fit_n_ > 0) gp_options.fit.fixed_start = false;
     gp::GaussianProcess model(d, gp_options);
-    model.set_hyperparameters(hp_);
-    model.set_data(x, y);
     const auto nu = static_cast<std::size_t>(n);
     const double grown = static_cast<double>(nu) - static_cast<double>(last_fit_n_);
     const bool refit =
         last_fit_n_ == 0 ||
         grown >= std::max(1.0, std::round(options_.refit_growth * static_cast<double>(nu)));
+    if (!(refit && n >= 2) && cache_ && cache_n_ <= nu) {
+        // Between refits (same hyperparameters) new observations enter the cached factor by
+        // O(n²) appends; only K⁻¹y is recomputed for the outputs (the warping and the worst
+        // value may have moved).
+        for (Eigen::Index i = static_cast<Eigen::Index>(cache_n_); i < n; ++i) cache_->append(x.col(i), y(i));
+        cache_->set_outputs(y);
+        cache_n_ = nu;
+        model = *cache_;
+        ++stats_.appends;
+    } else {
+        model.set_hyperparameters(hp_);
+        model.set_data(x, y);
+        ++stats_.factorizations;
+    }
     if (refit && n >= 2) {
+        ++stats_.refits;
         if (options_.warping == OutputWarping::automatic && n <= options_.gp.fit.max_points) {
             // Each candidate warping fitted on the same data; the one under which the values
             // themselves are most probable wins: log p(v) = log p(z) + Σ log |dz/dv|, with
@@ -358,6 +368,10 @@ Optimizer::Model Optimizer::build_model() {
             hp_ = model.fit(mix(options_.seed, 1000 + nu)).hyperparameters;
         }
         last_fit_n_ = nu;
+    }
+    if (!cache_ || cache_n_ != nu) {
+        cache_ = model;
+        cache_n_ = nu;
     }
     Model m{std::move(model), best};
     // Kriging believer: pending points enter with their predicted value, which shrinks the
@@ -643,6 +657,8 @@ void Optimizer::replay(const std::vector<Observation>& history, const std::vecto
     last_fit_n_ = 0;
     warp_alpha_ = 0;
     warp_hp_.clear();
+    cache_.reset();
+    cache_n_ = 0;
     for (std::size_t k = 0; k < history.size(); ++k) {
         const std::string origin = k < origins.size() ? origins[k] : "model";
         if (origin == "initial") {

@@ -60,7 +60,7 @@ struct OptimizerOptions {
     double failure_radius = 0.05;  // no proposals this close (unit cube, Euclidean) to a failure
     // Hyperparameters are refitted when the observations grew by this fraction since the last
     // fit (at least one new observation): every tell below 20, every 5th at 100, every 50th at
-    // 1000. In between, new points enter the factorization by O(n²) appends of the same model.
+    // 1000. In between, new points enter the cached factorization by O(n²) appends.
     double refit_growth = 0.05;
     // The trust region (TuRBO-1): a box around the best observation, side L in the unit cube
     // per dimension scaled by the GP's length scales; L doubles after 3 improvements in a row,
@@ -148,6 +148,12 @@ class Optimizer {
     int initial_points() const;
     // The output warping in use since the last refit: "none", "log(c = 0.1 range)", "copula".
     std::string warping_in_use() const;
+    // How the model builds went: hyperparameter refits, full factorizations, and builds that
+    // appended new observations to the cached factor instead (O(n²)).
+    struct ModelStats {
+        std::size_t refits = 0, factorizations = 0, appends = 0;
+    };
+    const ModelStats& model_stats() const { return stats_; }
     // The trust region's side length (unit cube) the next region proposal uses.
     double trust_region_side() const { return trust_region_length(); }
 
@@ -205,6 +211,11 @@ class Optimizer {
     gp::Hyperparameters hp_;
     std::size_t last_fit_n_ = 0;
     double warp_alpha_ = 0;  // the warping chosen at the last refit (0: identity)
+    // The model of the last build (its first cache_n_ observations, no fantasies): the next
+    // build appends to its factor unless the hyperparameters were refitted.
+    std::optional<gp::GaussianProcess> cache_;
+    std::size_t cache_n_ = 0;
+    ModelStats stats_;
     std::map<double, gp::Hyperparameters> warp_hp_;  // per candidate warping: warm starts
 };
 

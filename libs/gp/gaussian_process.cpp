@@ -201,6 +201,18 @@ bool GaussianProcess::set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& 
         throw std::invalid_argument("GaussianProcess::set_data: shape mismatch");
     }
     x_ = x;
+    standardize(y);
+    return refactorize();
+}
+
+bool GaussianProcess::set_outputs(const Eigen::VectorXd& y) {
+    if (y.size() != x_.cols()) throw std::invalid_argument("GaussianProcess::set_outputs: shape mismatch");
+    standardize(y);
+    if (x_.cols() > 0) update_alpha();  // K, and so its factor, does not depend on the outputs
+    return true;
+}
+
+void GaussianProcess::standardize(const Eigen::VectorXd& y) {
     const Eigen::Index n = y.size();
     if (options_.mean == MeanKind::constant) {
         y_offset_ = n > 0 ? y.mean() : 0.0;
@@ -213,7 +225,6 @@ bool GaussianProcess::set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& 
         y_scale_ = ms > 1e-24 ? std::sqrt(ms) : 1.0;
     }
     y_ = (y.array() - y_offset_) / y_scale_;
-    return refactorize();
 }
 
 bool GaussianProcess::set_hyperparameters(const Hyperparameters& hp) {
@@ -360,6 +371,25 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
             best = run.value;
             best_theta = run.theta;
         }
+    }
+    if (n > o.max_points && o.full_data_refine) {
+        // One warm run on all points from the subset's optimum: the subset finds the basin at
+        // a fraction of the cost, the full data sets where in it the optimum lies.
+        LBFGSpp::LBFGSBParam<double> refine = param;
+        refine.max_iterations = o.refine_iterations;
+        LBFGSpp::LBFGSBSolver<double> solver(refine);
+        Eigen::VectorXd theta = best_theta;
+        Objective objective{x_, y_, o, options_.backend};
+        double fx = 0.0;
+        try {
+            solver.minimize(objective, theta, fx, bounds.lower, bounds.upper);
+        } catch (const std::exception&) {
+        }
+        result.evaluations += objective.evaluations;
+        ++result.starts;
+        best = objective.best_value;
+        best_theta = objective.best_theta;
+        result.points_used = n;
     }
     result.neg_log_posterior = best;
     result.hyperparameters = Hyperparameters::from_log(best_theta);

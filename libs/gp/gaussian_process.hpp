@@ -24,7 +24,12 @@ enum class MeanKind {
 struct FitOptions {
     int random_starts = 2;          // random starts, in addition to the warm start and a fixed one
     int max_iterations = 50;        // L-BFGS-B iterations per start
-    Eigen::Index max_points = 200;  // fit on a seeded random subset above this (O(n³) per step)
+    Eigen::Index max_points = 200;  // multi-start on a seeded random subset above this (O(n³) per step)
+    // Above max_points, the subset's optimum is then refined by one L-BFGS-B run on all points
+    // (at most refine_iterations): the fit maximizes the full data's posterior (issue 15).
+    // false: the subset's optimum as is (faster; its accuracy cost is in BENCHMARKS.md).
+    bool full_data_refine = true;
+    int refine_iterations = 15;
     bool use_priors = true;  // log-normal priors; false gives plain type-II maximum likelihood
     // Log-normal length-scale prior: log l ~ N(mean, sd²). A NaN mean selects the
     // dimension-scaled centre length_scale_prior_mean(d).
@@ -100,6 +105,9 @@ class GaussianProcess {
     // Replaces the data (x: d×n in the unit cube), recomputes the output standardization and
     // factorizes. False if the covariance could not be factorized even with jitter.
     bool set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y);
+    // Replaces the outputs only (same inputs, in order): new standardization and K⁻¹y in O(n²)
+    // with the existing factor, which depends on the inputs and hyperparameters alone.
+    bool set_outputs(const Eigen::VectorXd& y);
     bool set_hyperparameters(const Hyperparameters& hp);
     // Adds one observation in O(n²), keeping hyperparameters and standardization (used for
     // fantasized pending points and between refits).
@@ -118,6 +126,7 @@ class GaussianProcess {
 
   private:
     bool refactorize();
+    void standardize(const Eigen::VectorXd& y);  // y_offset_, y_scale_, y_
     // predict through Cholesky::solve_lower, for backends without a dense factor.
     void predict_generic(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean,
                          Eigen::VectorXd& variance) const;

@@ -126,6 +126,29 @@ TEST(GaussianProcessTest, AppendAndTruncateMatchFreshModel) {
     EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-9);
 }
 
+// Issue 15: between refits the optimizer appends points and replaces all outputs (a warping or
+// the worst value moved); the result equals a fresh model of the same data.
+TEST(GaussianProcessTest, AppendThenSetOutputsMatchesFreshModel) {
+    std::mt19937_64 rng(9);
+    const Eigen::MatrixXd x = uniform_points(3, 60, rng);
+    const Eigen::VectorXd y0 = Eigen::VectorXd::Random(60);
+    const Eigen::VectorXd y1 = 5.0 + 3.0 * Eigen::VectorXd::Random(60).array();  // other outputs
+    const Hyperparameters hp = some_hyperparameters();
+    GaussianProcess inc = make_gp(3, hp, x.leftCols(40), y0.head(40));
+    for (Eigen::Index i = 40; i < 60; ++i) ASSERT_TRUE(inc.append(x.col(i), y0(i)));
+    ASSERT_TRUE(inc.set_outputs(y1));
+    const GaussianProcess fresh = make_gp(3, hp, x, y1);
+    EXPECT_NEAR(inc.output_offset(), fresh.output_offset(), 1e-12);
+    EXPECT_NEAR(inc.output_scale(), fresh.output_scale(), 1e-12);
+    const Eigen::MatrixXd xs = uniform_points(3, 20, rng);
+    Eigen::VectorXd m1, v1, m2, v2;
+    inc.predict(xs, m1, v1);
+    fresh.predict(xs, m2, v2);
+    EXPECT_LT((m1 - m2).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_THROW(inc.set_outputs(Eigen::VectorXd::Zero(3)), std::invalid_argument);
+}
+
 // Realistic optimizer data in 9-D: a spread-out design plus clusters of near-duplicates
 // around a few centres (local refinement), with a fitted-looking model and tiny noise, so that
 // K is ill-conditioned as in a long run.
