@@ -121,33 +121,40 @@ BENCHMARK_CAPTURE(BM_Factorize, eigen, CholeskyBackend::eigen)
     ->Arg(300)
     ->Arg(1000)
     ->Arg(2000)
+    ->Arg(3000)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Factorize, cholmod, CholeskyBackend::cholmod)
     ->Arg(100)
     ->Arg(300)
     ->Arg(1000)
     ->Arg(2000)
+    ->Arg(3000)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Append, eigen, CholeskyBackend::eigen)
     ->Arg(100)
     ->Arg(300)
     ->Arg(1000)
     ->Arg(2000)
+    ->Arg(3000)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Append, cholmod, CholeskyBackend::cholmod)
     ->Arg(100)
     ->Arg(300)
     ->Arg(1000)
+    ->Arg(2000)
+    ->Arg(3000)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_SolveLower1024, eigen, CholeskyBackend::eigen)
     ->Arg(100)
     ->Arg(300)
     ->Arg(1000)
+    ->Arg(3000)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_SolveLower1024, cholmod, CholeskyBackend::cholmod)
     ->Arg(100)
     ->Arg(300)
     ->Arg(1000)
+    ->Arg(3000)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Inverse)->Arg(100)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NegLogPosterior)->Arg(100)->Arg(200)->Unit(benchmark::kMillisecond);
