@@ -62,17 +62,51 @@ Eigen::VectorXd copula(const Eigen::VectorXd& y) {
 
 // Negative acquisition over u for LBFGSpp; integer coordinates are held fixed by their bounds
 // and get zero gradient because the model input is piecewise constant in them.
+// log P(live) = log Φ(μ / √(s0² + σ²)) of the dead-region classifier, and its gradient.
+constexpr double kLiveScale2 = 0.25;  // s0²: labels ±1, so μ = ±1 means P ≈ 0.98 / 0.02
+double log_live(const gp::PointPrediction& p, Eigen::VectorXd* grad) {
+    const double s = std::sqrt(kLiveScale2 + std::max(0.0, p.variance));
+    const double t = p.mean / s;
+    const double cdf = 0.5 * std::erfc(-t / std::sqrt(2.0));
+    const double log_cdf = cdf > 1e-300 ? std::log(cdf) : -690.0;
+    if (grad) {
+        const double pdf = std::exp(-0.5 * t * t) / std::sqrt(2.0 * M_PI);
+        const double ratio = cdf > 1e-300 ? pdf / cdf : std::max(-t, 0.0);  // Mills ratio tail
+        // dt = (μ' s − μ s') / s², s' = σ²' / (2 s)
+        *grad = ratio * (p.mean_gradient * s - p.mean * p.variance_gradient / (2.0 * s)) / (s * s);
+    }
+    return log_cdf;
+}
+
+// Acquisition weighted by P(live): log-EI + log P, EI × P; UCB is left alone (not a probability
+// of improvement, a weight would change its meaning).
+void weigh_by_live(const AcquisitionContext& ctx, double log_p, double& value) {
+    if (ctx.kind == Acquisition::log_ei) value += log_p;
+    if (ctx.kind == Acquisition::ei) value *= std::exp(log_p);
+}
+
 struct AcquisitionObjective {
     const gp::GaussianProcess& gp;
     const SearchSpace& space;
     const AcquisitionContext& ctx;
+    const gp::GaussianProcess* live = nullptr;
     double best_value = -std::numeric_limits<double>::infinity();
     Eigen::VectorXd best_u;
 
     double operator()(const Eigen::VectorXd& u, Eigen::VectorXd& grad) {
         const Eigen::VectorXd g = space.to_model_input(u);
         Eigen::VectorXd acq_grad;
-        const double value = acquisition_value(ctx, gp.predict_with_gradient(g), &acq_grad);
+        double value = acquisition_value(ctx, gp.predict_with_gradient(g), &acq_grad);
+        if (live && (ctx.kind == Acquisition::log_ei || ctx.kind == Acquisition::ei) && std::isfinite(value)) {
+            Eigen::VectorXd lg;
+            const double lp = log_live(live->predict_with_gradient(g), &lg);
+            if (ctx.kind == Acquisition::log_ei) {
+                acq_grad += lg;
+            } else {
+                acq_grad = std::exp(lp) * (acq_grad + value * lg);
+            }
+            weigh_by_live(ctx, lp, value);
+        }
         grad = -acq_grad;
         for (int j = 0; j < space.dim(); ++j) {
             if (space.specs()[static_cast<std::size_t>(j)].is_integer) grad(j) = 0.0;
@@ -373,7 +407,29 @@ Optimizer::Model Optimizer::build_model() {
         cache_ = model;
         cache_n_ = nu;
     }
-    Model m{std::move(model), best};
+    Model m{std::move(model), best, std::nullopt};
+    if (options_.dead_value) {
+        std::size_t dead = 0;
+        Eigen::VectorXd labels(n);
+        for (Eigen::Index k = 0; k < n; ++k) {
+            const bool d_k = is_dead(observations_[static_cast<std::size_t>(k)]);
+            labels(k) = d_k ? -1.0 : 1.0;
+            dead += d_k ? 1 : 0;
+        }
+        if (dead > 0 && dead < nu) {
+            // Labels in their own units (no standardization: ±1 is the scale of s0).
+            gp::GpOptions lo = options_.gp;
+            lo.mean = gp::MeanKind::zero;
+            gp::GaussianProcess live(d, lo);
+            if (live_hp_.length_scales.size() == d) live.set_hyperparameters(live_hp_);
+            live.set_data(x, labels);
+            if (live_fit_n_ == 0 || (refit && n >= 2)) {
+                live_hp_ = live.fit(mix(options_.seed, 3000 + nu)).hyperparameters;
+                live_fit_n_ = nu;
+            }
+            m.live = std::move(live);
+        }
+    }
     // Kriging believer: pending points enter with their predicted value, which shrinks the
     // variance around them so that the next proposal goes elsewhere.
     for (const auto& [id, p] : pending_) {
@@ -492,6 +548,16 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
     Eigen::VectorXd mean, var;
     model.gp.predict(cand_g, mean, var);
     Eigen::VectorXd acq = acquisition_values(ctx, mean, var);
+    if (model.live) {
+        Eigen::VectorXd lm, lv;
+        model.live->predict(cand_g, lm, lv);
+        for (Eigen::Index i = 0; i < n_total; ++i) {
+            gp::PointPrediction p;
+            p.mean = lm(i);
+            p.variance = lv(i);
+            if (std::isfinite(acq(i))) weigh_by_live(ctx, log_live(p, nullptr), acq(i));
+        }
+    }
     const double minus_inf = -std::numeric_limits<double>::infinity();
     for (Eigen::Index i = 0; i < n_total; ++i) {
         if (!std::isfinite(acq(i)) || is_taken(cand_g.col(i)) || near_failure(cand_g.col(i)))
@@ -530,7 +596,7 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
                 lb(j) = ub(j) = cand_u(j, c);
         }
         LBFGSpp::LBFGSBSolver<double> solver(param);
-        AcquisitionObjective objective{model.gp, space_, ctx};
+        AcquisitionObjective objective{model.gp, space_, ctx, model.live ? &*model.live : nullptr};
         Eigen::VectorXd u = cand_u.col(c);
         double fx = 0.0;
         try {
@@ -644,6 +710,10 @@ void Optimizer::add_observation(const Observation& observation) {
     observations_.push_back(std::move(o));
 }
 
+bool Optimizer::is_dead(const Observation& o) const {
+    return o.failed || (options_.dead_value && internal(o.value) <= internal(*options_.dead_value));
+}
+
 bool Optimizer::has_success() const {
     return std::any_of(observations_.begin(), observations_.end(), [](const Observation& o) { return !o.failed; });
 }
@@ -659,6 +729,8 @@ void Optimizer::replay(const std::vector<Observation>& history, const std::vecto
     warp_hp_.clear();
     cache_.reset();
     cache_n_ = 0;
+    live_hp_ = gp::Hyperparameters();
+    live_fit_n_ = 0;
     for (std::size_t k = 0; k < history.size(); ++k) {
         const std::string origin = k < origins.size() ? origins[k] : "model";
         if (origin == "initial") {

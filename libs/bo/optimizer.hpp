@@ -70,6 +70,12 @@ struct OptimizerOptions {
     // the region alone parks multi-modal Levy in a side basin, the whole box alone lets the
     // model park "unimportant" dimensions on the boundary (ellipsoid, Styblinski-Tang).
     SearchRegion search = SearchRegion::alternate;
+    // Dead regions (issue 15): observations at or worse than this value (the matcher's p = 0:
+    // no match at all) and failures are "dead". Once both kinds exist, a second GP on the
+    // labels (+1 live, −1 dead; least-squares classification) gives P(live) = Φ(μ / √(0.25 +
+    // σ²)), and EI / log-EI are weighted by it (as constrained BO weighs by the probability of
+    // feasibility), so whole dead regions stop attracting proposals. Empty: off.
+    std::optional<double> dead_value;
     gp::GpOptions gp;
     std::uint64_t seed = 0;
 };
@@ -165,7 +171,9 @@ class Optimizer {
     struct Model {
         gp::GaussianProcess gp;
         double incumbent;  // best internal value incl. fantasies
+        std::optional<gp::GaussianProcess> live;  // the dead-region classifier, when in use
     };
+    bool is_dead(const Observation& o) const;
 
     // A monotone map of internal values (larger is better) that the GP models: identity, or
     // z = −log(best − v + c) with c = alpha × (best − worst).
@@ -216,6 +224,8 @@ class Optimizer {
     std::optional<gp::GaussianProcess> cache_;
     std::size_t cache_n_ = 0;
     ModelStats stats_;
+    gp::Hyperparameters live_hp_;  // the classifier's, refitted with the main model
+    std::size_t live_fit_n_ = 0;
     std::map<double, gp::Hyperparameters> warp_hp_;  // per candidate warping: warm starts
 };
 

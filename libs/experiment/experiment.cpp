@@ -242,7 +242,8 @@ Experiment load_experiment(const std::string& file) {
         const YamlPath p = top.child("optimizer");
         const YAML::Node n = root["optimizer"];
         params::check_keys(n, p, {"acquisition", "ucb_kappa", "initial_points", "seed", "batch", "warping", "search",
-                                  "cholesky"});
+                                  "cholesky", "dead_regions"});
+        if (n["dead_regions"].IsDefined()) e.dead_regions = params::read_bool(n["dead_regions"], p.child("dead_regions"));
         if (n["warping"].IsDefined()) {
             e.warping = read_choice(n["warping"], p.child("warping"), {"none", "log", "copula", "automatic"});
         }
@@ -369,6 +370,8 @@ bo::OptimizerOptions optimizer_options(const Experiment& e) {
                : e.search == "trust_region" ? bo::SearchRegion::trust_region
                                             : bo::SearchRegion::alternate;
     o.gp.backend = e.cholesky == "cholmod" ? gp::CholeskyBackend::cholmod : gp::CholeskyBackend::eigen;
+    // The matcher's p = 0 is "no match at all": whole regions of the space are dead (issue 15).
+    if (!e.objective && e.dead_regions) o.dead_value = 0.0;
     return o;
 }
 

@@ -59,6 +59,7 @@ struct Experiment {
     std::string warping = "automatic";       // none | log | copula | automatic (docs/optimizer.md)
     std::string search = "alternate";        // global | trust_region | alternate
     std::string cholesky = "eigen";          // eigen | cholmod (the GP's factorization)
+    bool dead_regions = true;                // model where p = 0 (matcher experiments only)
     std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline
     std::vector<std::string> start_point_files;
     // Non-optimized matcher settings.

@@ -135,6 +135,34 @@ TEST(OptimizerTest, BuildsBetweenRefitsAppendToTheCachedFactor) {
     EXPECT_EQ(a[0].values, b[0].values);
 }
 
+// Issue 15: with a dead-region model (p = 0 is "no match at all") fewer proposals land in a
+// dead half of the box whose edge is the best place of the live half.
+TEST(OptimizerTest, DeadRegionModelKeepsProposalsOutOfDeadRegions) {
+    const std::vector<ParameterSpec> specs = {{"x1", 0, 1}, {"x2", 0, 1}};
+    auto f = [](const std::vector<double>& x) {
+        return x[0] < 0.5 ? 0.0 : 1.5 - x[0] - (x[1] - 0.3) * (x[1] - 0.3);  // cliff at the best
+    };
+    auto dead_proposals = [&](bool model_dead, std::uint64_t seed) {
+        OptimizerOptions o = fast_options(seed);
+        o.direction = Direction::maximize;
+        if (model_dead) o.dead_value = 0.0;
+        Optimizer opt(specs, o);
+        int dead = 0;
+        for (int i = 0; i < 40; ++i) {
+            const Proposal p = opt.ask(1)[0];
+            if (p.origin == "model" && p.values[0] < 0.5) ++dead;
+            opt.tell(p.id, f(p.values));
+        }
+        return dead;
+    };
+    int with = 0, without = 0;
+    for (std::uint64_t seed : {1, 2, 3}) {
+        with += dead_proposals(true, seed);
+        without += dead_proposals(false, seed);
+    }
+    EXPECT_LT(with, without);
+}
+
 TEST(OptimizerTest, FindsBraninMinimum) {
     const TestFunction fn = branin();
     Optimizer opt(fn.space, fast_options(1));

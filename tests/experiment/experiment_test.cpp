@@ -137,6 +137,11 @@ TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
         write("name: d\nspace: space.yaml\ndataset: ds\noptimizer: {warping: none, search: global}\n"));
     EXPECT_EQ(optimizer_options(f).warping, bo::OutputWarping::none);
     EXPECT_EQ(optimizer_options(f).search, bo::SearchRegion::global);
+    ASSERT_TRUE(optimizer_options(e).dead_value.has_value());  // p = 0: no match at all
+    EXPECT_EQ(*optimizer_options(e).dead_value, 0.0);
+    EXPECT_FALSE(optimizer_options(load_experiment(write(
+                     "name: d\nspace: space.yaml\ndataset: ds\noptimizer: {dead_regions: false}\n")))
+                     .dead_value.has_value());
     if (gp::cholmod_available()) {
         const Experiment g =
             load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\noptimizer: {cholesky: cholmod}\n"));
