@@ -1,4 +1,5 @@
 #include "gp/cholesky.hpp"
+#include "gp/parallel.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -87,28 +88,34 @@ Eigen::MatrixXd EigenCholesky::solve(const Eigen::MatrixXd& b) const {
 }
 
 void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& linv,
-                        Eigen::MatrixXd& inverse) {
+                        Eigen::MatrixXd& inverse, int threads) {
     // A⁻¹ = L⁻ᵀ L⁻¹, both factors triangular. In blocks that skip their zeros (a column block of
-    // L⁻¹ is zero above its diagonal block, a row block zero right of it) this takes n³/3
-    // multiply-adds instead of the ~n³ of dense solves and a dense product.
+    // L⁻¹ is zero above its diagonal block) this takes ~n³/3 multiply-adds instead of the ~n³
+    // of dense solves and a dense product.
     const Eigen::Index n = l.rows();
     const Eigen::Index block = 32;
+    const int blocks = static_cast<int>((n + block - 1) / block);
     linv.setZero(n, n);
-    for (Eigen::Index j0 = 0; j0 < n; j0 += block) {
+    // Column block b of L⁻¹: rows from its diagonal block down, one triangular solve.
+    parallel_for(blocks, threads, [&](int b) {
+        const Eigen::Index j0 = b * block;
         const Eigen::Index w = std::min(block, n - j0);
         const Eigen::Index rows = n - j0;
         auto columns = linv.block(j0, j0, rows, w);
         columns.topRows(w).setIdentity();
         l.block(j0, j0, rows, rows).triangularView<Eigen::Lower>().solveInPlace(columns);
-    }
-    inverse.setZero(n, n);
-    for (Eigen::Index k0 = 0; k0 < n; k0 += block) {
-        const Eigen::Index h = std::min(block, n - k0);
-        const Eigen::Index cols = k0 + h;
-        inverse.topLeftCorner(cols, cols)
-            .selfadjointView<Eigen::Lower>()
-            .rankUpdate(linv.block(k0, 0, h, cols).transpose());
-    }
+    });
+    // Row block I of the lower triangle of A⁻¹: A⁻¹(I, 0:I+h) = L⁻¹(I:, I)ᵀ L⁻¹(I:, 0:I+h),
+    // as L⁻¹(k, i) = 0 for k < i. Blocks go to threads in an interleaved order (their work
+    // varies with I).
+    inverse.resize(n, n);
+    parallel_for(blocks, threads, [&](int b) {
+        const Eigen::Index i0 = b * block;
+        const Eigen::Index h = std::min(block, n - i0);
+        const Eigen::Index rows = n - i0;
+        inverse.block(i0, 0, h, i0 + h).noalias() =
+            linv.block(i0, i0, rows, h).transpose() * linv.block(i0, 0, rows, i0 + h);
+    });
     for (Eigen::Index j = 1; j < n; ++j) {
         inverse.col(j).head(j) = inverse.row(j).head(j).transpose();
     }

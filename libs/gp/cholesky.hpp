@@ -49,9 +49,11 @@ std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend);
 
 // A⁻¹ from the lower Cholesky factor L of A (only its lower triangle is read), in n³/3
 // multiply-adds; linv receives L⁻¹. Both outputs are resized; reusing them across calls
-// avoids the allocations.
+// avoids the allocations. `threads` (gp::resolve_threads units, 1 = the caller only) split
+// the column blocks of L⁻¹ and the row blocks of A⁻¹; each block is written by one task, so
+// the result does not depend on the thread count.
 void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& linv,
-                        Eigen::MatrixXd& inverse);
+                        Eigen::MatrixXd& inverse, int threads = 1);
 
 class EigenCholesky final : public Cholesky {
   public:

@@ -64,6 +64,7 @@ double add_prior(const Eigen::VectorXd& theta, int dim, const FitOptions& o,
 // at n = 200) cost page faults on every evaluation, ~20 % of the fit at n = 100.
 struct NlpWorkspace {
     Eigen::MatrixXd z, r2, kf, q, k, linv, w;
+    int threads = 1;  // inside one evaluation (the full-data refinement; the starts are parallel)
 };
 
 double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
@@ -113,7 +114,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
         if (chol) {
             ws.w = chol->inverse();
         } else {
-            inverse_from_lower(ws.k, ws.linv, ws.w);
+            inverse_from_lower(ws.k, ws.linv, ws.w, ws.threads);
         }
         ws.w *= -1.0;
         ws.w.noalias() += alpha * alpha.transpose();
@@ -380,6 +381,7 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         LBFGSpp::LBFGSBSolver<double> solver(refine);
         Eigen::VectorXd theta = best_theta;
         Objective objective{x_, y_, o, options_.backend};
+        objective.workspace.threads = resolve_threads(options_.threads);
         double fx = 0.0;
         try {
             solver.minimize(objective, theta, fx, bounds.lower, bounds.upper);
