@@ -141,7 +141,7 @@ Optimizer::Optimizer(std::vector<ParameterSpec> specs, OptimizerOptions options,
 }
 
 int Optimizer::initial_points() const {
-    return options_.initial_points > 0 ? options_.initial_points : std::max(5, 2 * space_.dim());
+    return options_.initial_points > 0 ? options_.initial_points : std::max(5, space_.dim() + 1);
 }
 
 void Optimizer::add_start_point(const std::vector<double>& values) {

@@ -50,7 +50,9 @@ struct OptimizerOptions {
     double ucb_kappa = 5.0;       // fixed UCB weight; the thesis used 5
     double schedule_delta = 0.1;  // Srinivas δ
     double schedule_scale = 0.2;  // Srinivas et al. scale β_t down by 5 in their experiments
-    int initial_points = 0;       // quasi-random design size; 0 = max(5, 2·d)
+    // Quasi-random design size; 0 = max(5, d + 1): measured better than 2d on every 9-D
+    // benchmark function (BENCHMARKS.md, issue 15) — more of the budget goes to the model.
+    int initial_points = 0;
     // Quasi-random acquisition candidates per proposal; above 300 observations scaled by
     // 300/n (at least 256) because each costs O(n²) for its variance.
     int candidates = 2000;

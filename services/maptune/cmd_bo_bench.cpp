@@ -31,6 +31,7 @@ struct BoBenchOptions {
     int fit_random_starts = 2;
     std::string warping = "automatic";
     std::string search = "alternate";
+    int initial_points = 0;
     int threads = 0;
     bool timing = false;
     bool no_regret = false;
@@ -116,6 +117,7 @@ int run_bo_bench(const BoBenchOptions& o) {
                                       : o.warping == "automatic" ? bo::OutputWarping::automatic
                                                                  : bo::OutputWarping::none;
                     options.gp.fit.random_starts = o.fit_random_starts;
+                    options.initial_points = o.initial_points;
                     options.search = o.search == "global"         ? bo::SearchRegion::global
                                      : o.search == "trust_region" ? bo::SearchRegion::trust_region
                                                                   : bo::SearchRegion::alternate;
@@ -286,6 +288,9 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--warping", opt->warping,
                     "output warping before the GP: none | copula | log | automatic (default: automatic)")
         ->check(CLI::IsMember({"none", "copula", "log", "automatic"}));
+    cmd->add_option("--initial-points", opt->initial_points,
+                    "quasi-random design size, 0..1000; 0 = max(5, d + 1) (default: 0)")
+        ->check(CLI::Range(0, 1000));
     cmd->add_option("--search", opt->search,
                     "where proposals are searched: global | trust_region | alternate (default: alternate)")
         ->check(CLI::IsMember({"global", "trust_region", "alternate"}));

@@ -96,7 +96,7 @@ void add_optimize_command(CLI::App& app, int& exit_code) {
         ->check(CLI::IsMember({"alternate", "trust_region", "global"}));
     cmd->add_option("--cholesky", o->spec.cholesky, "GP factorization: eigen | cholmod")
         ->check(CLI::IsMember({"eigen", "cholmod"}));
-    cmd->add_option("--initial-points", o->spec.initial_points, "quasi-random design size (0: max(5, 2 d))")
+    cmd->add_option("--initial-points", o->spec.initial_points, "quasi-random design size (0: max(5, d + 1))")
         ->check(CLI::Range(0, 10000));
     cmd->add_option("--start", o->spec.start_points, "parameter set YAML evaluated first (repeatable)")
         ->check(CLI::ExistingFile);

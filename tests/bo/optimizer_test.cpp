@@ -68,12 +68,16 @@ TEST(OptimizerTest, AutomaticWarpingPicksTheLogForValuesOverOrdersOfMagnitude) {
     ASSERT_TRUE(best);
     const auto post = opt.posterior({best->values});
     ASSERT_EQ(post.size(), 1u);
-    // At an observation the posterior mean is the value itself up to the model's noise.
-    EXPECT_NEAR(post[0].mean, best->value, 0.2 * std::max(1.0, std::fabs(best->value))) << best->value;
+    // At an observation the posterior mean maps back to about the value (the log warping's
+    // offset c = 0.1 range flattens differences far below c, hence the tolerance).
+    double worst = best->value;
+    for (const auto& o : opt.observations()) worst = std::max(worst, o.value);
+    const double range = worst - best->value;
+    EXPECT_NEAR(post[0].mean, best->value, 0.01 * range) << best->value << " range " << range;
     const auto pb = opt.predicted_best();
     ASSERT_TRUE(pb);
-    EXPECT_GT(pb->mean, 0.0);                  // never below the function's minimum by much
-    EXPECT_LT(pb->mean, 3.0 * best->value + 1.0);  // and in the units of the values
+    EXPECT_GT(pb->mean, -0.01 * range);                  // not below the minimum (0) by much
+    EXPECT_LT(pb->mean, best->value + 0.01 * range);     // and in the units of the values
     EXPECT_EQ(opt.warping_in_use() == "none", false);
 
     // A fixed warping is reported as such.
