@@ -181,22 +181,21 @@ GpTiming time_gp(int n, int dim, int predict_points, gp::CholeskyBackend backend
             return gp::neg_log_posterior(x, ystd, hp.to_log(), options.fit, nullptr, backend);
         };
         t.fit_nlp = full_nlp(fit.hyperparameters);
+        // A fresh model fitted with `o`: its wall seconds and full-data posterior.
+        auto timed_fit = [&](const gp::GpOptions& o, double& seconds, double& nlp) {
+            gp::GaussianProcess m(dim, o);
+            m.set_data(x, y);
+            const auto begin = Clock::now();
+            const gp::FitResult r = m.fit(1);
+            seconds = seconds_since(begin);
+            nlp = full_nlp(r.hyperparameters);
+        };
         gp::GpOptions subset = options;
         subset.fit.full_data_refine = false;
-        gp::GaussianProcess m1(dim, subset);
-        m1.set_data(x, y);
-        start = Clock::now();
-        const gp::FitResult fs = m1.fit(1);
-        t.fit_subset_seconds = seconds_since(start);
-        t.fit_subset_nlp = full_nlp(fs.hyperparameters);
+        timed_fit(subset, t.fit_subset_seconds, t.fit_subset_nlp);
         gp::GpOptions full = options;
         full.fit.max_points = n;
-        gp::GaussianProcess m2(dim, full);
-        m2.set_data(x, y);
-        start = Clock::now();
-        const gp::FitResult ff = m2.fit(1);
-        t.fit_full_seconds = seconds_since(start);
-        t.fit_full_nlp = full_nlp(ff.hyperparameters);
+        timed_fit(full, t.fit_full_seconds, t.fit_full_nlp);
     }
 
     std::vector<double> appends;

@@ -213,8 +213,7 @@ void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best,
             if (!observations_[static_cast<std::size_t>(k)].failed) best = std::max(best, y(k));
         }
     }
-    const double alpha = options_.warping == OutputWarping::log ? 0.1
-                         : options_.warping == OutputWarping::automatic ? warp_alpha_ : 0.0;
+    const double alpha = warp_alpha();
     if (alpha > 0 && n > 0) {
         const Warp w = warp_for(alpha, y);
         for (Eigen::Index i = 0; i < n; ++i) y(i) = w.apply(y(i));
@@ -224,8 +223,7 @@ void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best,
 
 std::string Optimizer::warping_in_use() const {
     if (options_.warping == OutputWarping::copula) return "copula";
-    const double alpha = options_.warping == OutputWarping::log ? 0.1
-                         : options_.warping == OutputWarping::automatic ? warp_alpha_ : 0.0;
+    const double alpha = warp_alpha();
     if (alpha <= 0) return "none";
     char buf[48];
     std::snprintf(buf, sizeof buf, "log(c = %g range)", alpha);
@@ -276,17 +274,18 @@ Optimizer::Warp Optimizer::warp_for(double alpha, const Eigen::VectorXd& y) cons
 
 // The warping the current values are modelled in (to map predictions back to values).
 Optimizer::Warp Optimizer::current_warp() const {
-    const double alpha = options_.warping == OutputWarping::log ? 0.1
-                         : options_.warping == OutputWarping::automatic ? warp_alpha_ : 0.0;
+    const double alpha = warp_alpha();
     if (alpha <= 0) return Warp{};
-    Eigen::VectorXd y(static_cast<Eigen::Index>(observations_.size()));
-    Eigen::Index k = 0;
-    double worst = std::numeric_limits<double>::infinity();
-    for (const auto& o : observations_) {
-        if (!o.failed) worst = std::min(worst, internal(o.value));
-    }
-    for (const auto& o : observations_) y(k++) = o.failed ? worst : internal(o.value);
-    return warp_for(alpha, y);
+    Eigen::MatrixXd x;
+    Eigen::VectorXd y, raw;
+    double best = 0;
+    model_data(x, y, best, &raw);
+    return warp_for(alpha, raw);
+}
+
+double Optimizer::warp_alpha() const {
+    if (options_.warping == OutputWarping::log) return 0.1;
+    return options_.warping == OutputWarping::automatic ? warp_alpha_ : 0.0;
 }
 
 AcquisitionContext Optimizer::acquisition_context(double incumbent) const {

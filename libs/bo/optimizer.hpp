@@ -203,6 +203,8 @@ class Optimizer {
     // `raw` (when given) receives the values before any warping.
     void model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best, Eigen::VectorXd* raw = nullptr) const;
     Warp current_warp() const;
+    // The offset factor of the log warping in use (0: identity): fixed, or the last choice.
+    double warp_alpha() const;
     // The trust region's side length now (from the observations in order).
     double trust_region_length() const;
     AcquisitionContext acquisition_context(double incumbent) const;

@@ -239,16 +239,7 @@ std::vector<std::pair<std::string, ObjectiveResult>> CommandPool::poll(double wa
             next_event = std::min(next_event, c.started + timeout_s_ + (c.timed_out ? kKillGrace : 0) + 0.01);
         }
         // Exits.
-        for (std::size_t i = 0; i < children_.size();) {
-            int status = 0;
-            const pid_t r = ::waitpid(children_[i].pid, &status, WNOHANG);
-            if (r == children_[i].pid || (r < 0 && errno == ECHILD)) {
-                finish(children_[i], r < 0 ? 0 : status, done);
-                children_.erase(children_.begin() + static_cast<std::ptrdiff_t>(i));
-            } else {
-                ++i;
-            }
-        }
+        reap([&](Child& c, int status) { finish(c, status, done); });
         if (!done.empty() || children_.empty()) break;
         const double now = now_s();
         if (now >= deadline) break;
@@ -289,23 +280,28 @@ std::vector<std::pair<std::string, ObjectiveResult>> CommandPool::poll(double wa
     return done;
 }
 
+void CommandPool::reap(const std::function<void(Child&, int)>& on_exit) {
+    for (std::size_t i = 0; i < children_.size();) {
+        int status = 0;
+        const pid_t r = ::waitpid(children_[i].pid, &status, WNOHANG);
+        if (r == children_[i].pid || (r < 0 && errno == ECHILD)) {
+            on_exit(children_[i], r < 0 ? 0 : status);
+            children_.erase(children_.begin() + static_cast<std::ptrdiff_t>(i));
+        } else {
+            ++i;
+        }
+    }
+}
+
 void CommandPool::kill_all() {
     for (auto& c : children_) ::kill(-c.pid, SIGTERM);
     const double until = now_s() + kKillGrace;
     while (!children_.empty()) {
-        for (std::size_t i = 0; i < children_.size();) {
-            int status = 0;
-            const pid_t r = ::waitpid(children_[i].pid, &status, WNOHANG);
-            if (r == children_[i].pid || (r < 0 && errno == ECHILD)) {
-                auto& c = children_[i];
-                close_fd(c.in);
-                close_fd(c.out);
-                close_fd(c.err);
-                children_.erase(children_.begin() + static_cast<std::ptrdiff_t>(i));
-            } else {
-                ++i;
-            }
-        }
+        reap([](Child& c, int) {
+            close_fd(c.in);
+            close_fd(c.out);
+            close_fd(c.err);
+        });
         if (children_.empty()) break;
         if (now_s() > until) {
             for (auto& c : children_) ::kill(-c.pid, SIGKILL);

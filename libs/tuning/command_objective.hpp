@@ -6,6 +6,7 @@
 // The one part of libs/tuning that touches the operating system (processes, pipes, clocks).
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -57,6 +58,8 @@ private:
         bool timed_out = false;
     };
     void finish(Child& c, int status, std::vector<std::pair<std::string, ObjectiveResult>>& done);
+    // Calls on_exit(child, wait status) for each child that exited and drops it.
+    void reap(const std::function<void(Child&, int)>& on_exit);
 
     std::string command_;
     double timeout_s_;

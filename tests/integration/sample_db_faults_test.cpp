@@ -34,6 +34,19 @@ namespace v1 = msg::v1;
 const std::string kSource = MAPTUNE_SOURCE_DIR;
 using namespace std::chrono_literals;
 
+// The fake worker's heartbeat: one lru_matcher slot of version "test" for `space_hash`.
+template <class Writer>
+void heartbeat(Writer& status, const std::string& space_hash, std::uint64_t sequence) {
+    v1::WorkerStatus ws;
+    ws.worker_id("w1");
+    ws.matcher_id("lru_matcher");
+    ws.matcher_version("test");
+    ws.space_hash(space_hash);
+    ws.slots(1);
+    ws.sequence_number(sequence);
+    status.write(ws);
+}
+
 template <class Pred>
 bool poll(Pred pred, double timeout_s) {
     const double end = services::now_s() + timeout_s;
@@ -98,15 +111,8 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
             std::uint64_t beat = 0;
             double last_beat = -1;
             while (!stop) {
-                if (services::now_s() - last_beat > 0.2) {  // heartbeat
-                    v1::WorkerStatus ws;
-                    ws.worker_id("w1");
-                    ws.matcher_id("lru_matcher");
-                    ws.matcher_version("test");
-                    ws.space_hash(space.hash());
-                    ws.slots(1);
-                    ws.sequence_number(++beat);
-                    status.write(ws);
+                if (services::now_s() - last_beat > 0.2) {
+                    heartbeat(status, space.hash(), ++beat);
                     last_beat = services::now_s();
                 }
                 std::optional<v1::EvaluationTask> t;
@@ -331,14 +337,7 @@ TEST(SampleDbFaults, AHungDatasetTransferDoesNotStopOtherRequests) {
             std::uint64_t beat = 0;
             while (!stop) {
                 if (services::now_s() - last_beat > 0.2) {
-                    v1::WorkerStatus ws;
-                    ws.worker_id("w1");
-                    ws.matcher_id("lru_matcher");
-                    ws.matcher_version("test");
-                    ws.space_hash(space.hash());
-                    ws.slots(1);
-                    ws.sequence_number(++beat);
-                    status.write(ws);
+                    heartbeat(status, space.hash(), ++beat);
                     last_beat = services::now_s();
                 }
                 std::optional<v1::EvaluationTask> t;
