@@ -125,6 +125,8 @@ measure: {m_star: 8}
 budget: {evaluations: $EVALS}
 optimizer: {seed: $SEED, batch: 1}
 start_points: [$ROOT/configs/params/x_baseline.yaml]
+# Not the worker's defaults: the settings travel in every task (issue 12).
+matcher: {settings: {icp_max_iterations: 10}}
 EOF
 
 T0=$SECONDS

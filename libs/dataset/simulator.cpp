@@ -87,6 +87,7 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"rock_colour_variation", r(c.rock_colour_variation, 0, 1)},
         {"floor_tile_contrast", r(c.floor_tile_contrast, 0, 1)},
         {"rock_facets", i(c.rock_facets, 0, 64)},
+        {"rock_molds", i(c.rock_molds, 0, 100000)},
         {"image_width", i(c.image_width, 8, 4096)},
         {"image_height", i(c.image_height, 8, 4096)},
         {"hfov_deg", r(c.hfov_deg, 1, 170)},
@@ -262,7 +263,7 @@ class World {
 public:
     World(const SimConfig& c, std::uint64_t seed)
         : lab_(c.world == "lab"), seed_(seed), rock_var_(static_cast<float>(c.rock_colour_variation)),
-          floor_contrast_(static_cast<float>(c.floor_tile_contrast)), facets_(c.rock_facets) {
+          floor_contrast_(static_cast<float>(c.floor_tile_contrast)), facets_(c.rock_facets), molds_(c.rock_molds) {
         if (c.world != "lab" && c.world != "moon") {
             throw std::invalid_argument("unknown world '" + c.world + "' (lab|moon)");
         }
@@ -460,7 +461,10 @@ private:
                     const double u = (c * x + s * y) / rx, v = (-s * x + c * y) / ry;
                     const double q = 1 - u * u - v * v;
                     if (q <= 0) continue;
-                    const float bump = 0.85f + 0.3f * value_noise3(static_cast<float>(x * 8), static_cast<float>(y * 8), 0, bump_seed);
+                    // Casts turn with their bumps: noise in the rock's frame (world-aligned
+                    // before molds existed, kept so for bit-identical presets).
+                    const double bx = molds_ > 0 ? u * rx : x, by = molds_ > 0 ? v * ry : y;
+                    const float bump = 0.85f + 0.3f * value_noise3(static_cast<float>(bx * 8), static_cast<float>(by * 8), 0, bump_seed);
                     hr = static_cast<float>(height_m * std::sqrt(q)) * bump;
                 } else {
                     const double u = c * x + s * y, v = -s * x + c * y;  // metres, rock frame
@@ -468,7 +472,8 @@ private:
                     for (const auto& pl : planes) h = std::min(h, (pl.s - pl.nx * u - pl.ny * v) / pl.nz);
                     if (h <= 0) continue;
                     // Fine surface texture only: faces stay flat at the LRF scale.
-                    hr = static_cast<float>(h) + 0.004f * (value_noise3(static_cast<float>(x * 25), static_cast<float>(y * 25), 0, bump_seed) - 0.5f);
+                    const double bx = molds_ > 0 ? u : x, by = molds_ > 0 ? v : y;
+                    hr = static_cast<float>(h) + 0.004f * (value_noise3(static_cast<float>(bx * 25), static_cast<float>(by * 25), 0, bump_seed) - 0.5f);
                 }
                 float& cell = h_[static_cast<std::size_t>(j) * nx_ + i];
                 const float base = additive ? ground_[static_cast<std::size_t>(j) * nx_ + i] : 0.f;
@@ -551,11 +556,26 @@ private:
         ground_ = h_;
         const int n = c.rocks > 0 ? c.rocks : 15 + static_cast<int>(rng.uniform() * 16);
         for (int k = 0; k < n; ++k) {
-            const double d = rng.uniform(0.2, 0.8);  // diameter
+            double d = rng.uniform(0.2, 0.8);  // diameter
             const double x = rng.uniform(0.8, size_ - 0.8), y = rng.uniform(0.8, size_ - 0.8);
-            const double rx = d / 2, ry = d / 2 * rng.uniform(0.6, 1.0);
-            stamp(x, y, rx, ry, rng.uniform(0, M_PI), d * rng.uniform(0.35, 0.6),
-                  static_cast<std::uint16_t>(kRock + k), static_cast<std::uint32_t>(k + 100), true);
+            double aspect = rng.uniform(0.6, 1.0);
+            // GCC evaluated stamp()'s arguments right to left before this was split up: height
+            // first, then the turn, so presets stay bit-identical.
+            double tall = rng.uniform(0.35, 0.6);
+            const double rot = rng.uniform(0, M_PI);
+            std::uint32_t shape = static_cast<std::uint32_t>(k + 100);
+            if (c.rock_molds > 0) {
+                // A cast keeps its mold's size, aspect, height and bumps; its own stream only
+                // placed it, so the world's other draws are unchanged.
+                const int mold = k % c.rock_molds;
+                Rng mrng(mix(seed_, 0x4d4f4c44ull + static_cast<std::uint64_t>(mold)));
+                d = mrng.uniform(0.2, 0.8);
+                aspect = mrng.uniform(0.6, 1.0);
+                tall = mrng.uniform(0.35, 0.6);
+                shape = static_cast<std::uint32_t>(mold + 100);
+            }
+            const double rx = d / 2, ry = d / 2 * aspect;
+            stamp(x, y, rx, ry, rot, d * tall, static_cast<std::uint16_t>(kRock + k), shape, true);
             keep_out_.push_back({x, y, rx + 0.4});
         }
     }
@@ -609,6 +629,7 @@ private:
     std::uint64_t seed_;
     float rock_var_ = 1, floor_contrast_ = 1;
     int facets_ = 0;
+    int molds_ = 0;
     double size_ = 0, res_ = 0, x0_ = 0, y0_ = 0;
     int nx_ = 0, ny_ = 0;
     std::vector<float> h_, ground_, bmax_;

@@ -27,6 +27,10 @@ struct SimConfig {
     // Rock shape (both worlds): 0 = smooth bumpy caps; N >= 3 = angular rocks, convex polyhedra
     // of N side facets, N/2 + 1 shoulder facets and a top around the same half-ellipsoid.
     int rock_facets = 0;
+    // Rock molds: 0 = every rock its own shape; N >= 1 = rocks cast from N molds, so rocks of
+    // one mold share size and shape and differ only in where they lie and how they are turned
+    // (a lab's artificial rocks are casts; twins make local descriptors ambiguous).
+    int rock_molds = 0;
 
     // Camera: a stereo pair (baseline_m) on a pan-tilt unit at camera_height_m. Rays are
     // cast on a subsampled image; the noise uses the real camera's focal length.

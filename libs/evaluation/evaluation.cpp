@@ -19,21 +19,12 @@ store::PairStatus to_store_status(matcher::MatchStatus status) {
 }
 
 std::string matcher_version(const matcher::MatcherSettings& s) {
-    // Every setting but the thread count changes what the matcher returns.
-    std::ostringstream text;
-    text.precision(17);
-    text << matcher::feature_settings_fingerprint(s) << '|' << s.collinear_inlier_fraction << ','
-         << s.line_threshold_m << ',' << s.line_ransac_iterations << ',' << s.ransac_iterations
-         << ',' << s.ransac_inlier_threshold_m << ',' << s.icp_max_iterations << ','
-         << s.icp_max_correspondence_m << ',' << s.icp_voxel_m << ',' << s.icp_enabled << ','
-         << s.max_roll_pitch_rad << ',' << s.min_points << ',' << s.min_keypoints << ','
-         << s.pair_time_limit_s << ',' << s.submap_time_limit_s << ',' << s.total_time_limit_s
-         << ',' << s.seed << ',' << s.min_icp_inlier_fraction << ',' << s.min_ransac_inliers;
-    // Appended only when not the default, so keys of older observations stay valid.
-    if (s.consensus_from_n_TF) text << ",nTF";
-    if (s.ransac_threshold_from != matcher::MatcherSettings::ThresholdFrom::kVK) text << ",ransac_vTF";
-    // The prefix counts code changes that alter results (2: ICP convergence epsilons).
-    return "2-" + dataset::hex64(dataset::fnv1a(text.str())).substr(0, 8);
+    // Every setting of the one table (all but the thread count) changes what the matcher returns.
+    std::string text;
+    for (const auto& kv : matcher::setting_texts(s)) text += kv + ";";
+    // The prefix counts code changes that alter results (2: ICP convergence epsilons; 3: the
+    // version derived from the settings table instead of a hand-kept list).
+    return std::string(kMatcherCodeRevision) + "-" + dataset::hex64(dataset::fnv1a(text)).substr(0, 8);
 }
 
 Evaluator::Evaluator(const dataset::Dataset& dataset, const params::ParameterSpace& space,

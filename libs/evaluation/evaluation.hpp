@@ -18,9 +18,12 @@
 namespace maptune::evaluation {
 
 inline constexpr const char* kMatcherId = "lru_matcher";
+// Counts code changes that alter the matcher's results: the part of a matcher version before
+// its '-'. A worker runs tasks carrying settings for any version of its own revision.
+inline constexpr const char* kMatcherCodeRevision = "3";
 
-// Fingerprint of every non-optimized matcher setting that changes results: part of the
-// matcher version in observation keys, so different settings never share an observation.
+// "<revision>-<fingerprint of every non-optimized setting>": part of the observation key, so
+// different settings (or code) never share an observation.
 std::string matcher_version(const matcher::MatcherSettings& settings);
 
 // Submap by id ("run00/submap003"); nullptr with `error` set when it cannot be had.

@@ -56,94 +56,142 @@ int clamp_to_bounds(MatcherParams& p) {
     return clamped;
 }
 
-std::string feature_settings_fingerprint(const MatcherSettings& s) {
+namespace {
+
+std::string number_text(double v) {
     std::ostringstream os;
-    os << s.outlier_removal << '/' << s.outlier_mean_k << '/' << s.outlier_stddev_mul << '/'
-       << s.surface_points_per_radius << '/' << s.unknown_samples_per_diameter << '/'
-       << s.viewpoint_x << ',' << s.viewpoint_y << ',' << s.viewpoint_z << '/' << s.icp_voxel_m
-       << '/' << s.min_points << '/' << s.min_keypoints << '/' << static_cast<int>(s.lrf_method)
-       << '/' << s.icp_point_to_plane << '/' << s.icp_source_voxel_factor;
+    os.precision(17);  // round-trips every double
+    os << v;
     return os.str();
 }
 
+// Parses `value` as a finite number in [lo, hi]; the error names the setting and the text.
+std::string parse_number(const std::string& key, const std::string& value, double lo, double hi, double& out) {
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (value.empty() || end == value.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi) {
+        std::ostringstream msg;
+        msg << "matcher setting " << key << ": '" << value << "' is not a number in [" << lo << ", " << hi << "]";
+        return msg.str();
+    }
+    out = v;
+    return "";
+}
+
+SettingField real(const char* name, bool per_submap, double MatcherSettings::*field, double lo, double hi) {
+    return {name, per_submap,
+            [=](MatcherSettings& s, const std::string& v) { return parse_number(name, v, lo, hi, s.*field); },
+            [=](const MatcherSettings& s) { return number_text(s.*field); }};
+}
+
+template <class Int>
+SettingField integer(const char* name, bool per_submap, Int MatcherSettings::*field, double lo, double hi) {
+    return {name, per_submap,
+            [=](MatcherSettings& s, const std::string& v) {
+                double x = 0;
+                auto err = parse_number(name, v, lo, hi, x);
+                if (err.empty() && x != std::floor(x)) err = "matcher setting " + std::string(name) + ": '" + v + "' is not an integer";
+                if (err.empty()) s.*field = static_cast<Int>(x);
+                return err;
+            },
+            [=](const MatcherSettings& s) { return std::to_string(s.*field); }};
+}
+
+SettingField boolean(const char* name, bool per_submap, bool MatcherSettings::*field) {
+    return {name, per_submap,
+            [=](MatcherSettings& s, const std::string& v) -> std::string {
+                if (v == "true" || v == "1") s.*field = true;
+                else if (v == "false" || v == "0") s.*field = false;
+                else return "matcher setting " + std::string(name) + ": '" + v + "' is not true or false";
+                return "";
+            },
+            [=](const MatcherSettings& s) -> std::string { return s.*field ? "true" : "false"; }};
+}
+
+template <class Enum>
+SettingField choice(const char* name, bool per_submap, Enum MatcherSettings::*field,
+                    std::vector<std::pair<std::string, Enum>> options) {
+    return {name, per_submap,
+            [=](MatcherSettings& s, const std::string& v) -> std::string {
+                std::string known;
+                for (const auto& [text, e] : options) {
+                    if (v == text) {
+                        s.*field = e;
+                        return "";
+                    }
+                    known += (known.empty() ? "" : " or ") + text;
+                }
+                return "matcher setting " + std::string(name) + ": '" + v + "' is not " + known;
+            },
+            [=](const MatcherSettings& s) {
+                for (const auto& [text, e] : options)
+                    if (s.*field == e) return text;
+                return std::string("?");
+            }};
+}
+
+}  // namespace
+
+const std::vector<SettingField>& setting_fields() {
+    using S = MatcherSettings;
+    static const std::vector<SettingField> fields{
+        boolean("outlier_removal", true, &S::outlier_removal),
+        integer("outlier_mean_k", true, &S::outlier_mean_k, 1, 1000),
+        real("outlier_stddev_mul", true, &S::outlier_stddev_mul, 0.01, 100),
+        real("surface_points_per_radius", true, &S::surface_points_per_radius, 1, 1000),
+        choice("lrf_method", true, &S::lrf_method, {{"shot", LrfMethod::kShot}, {"board", LrfMethod::kBoard}}),
+        real("unknown_samples_per_diameter", true, &S::unknown_samples_per_diameter, 2, 256),
+        real("viewpoint_x", true, &S::viewpoint_x, -1e6, 1e6),
+        real("viewpoint_y", true, &S::viewpoint_y, -1e6, 1e6),
+        real("viewpoint_z", true, &S::viewpoint_z, -1e6, 1e6),
+        real("collinear_inlier_fraction", false, &S::collinear_inlier_fraction, 0, 1),
+        real("line_threshold_m", false, &S::line_threshold_m, 0, 100),
+        integer("line_ransac_iterations", false, &S::line_ransac_iterations, 1, 1e7),
+        integer("ransac_iterations", false, &S::ransac_iterations, 1, 1e7),
+        real("ransac_inlier_threshold_m", false, &S::ransac_inlier_threshold_m, 0, 100),
+        choice("ransac_threshold_from", false, &S::ransac_threshold_from,
+               {{"v_K", S::ThresholdFrom::kVK}, {"v_TF", S::ThresholdFrom::kVTF}}),
+        integer("icp_max_iterations", false, &S::icp_max_iterations, 1, 1000),
+        real("icp_max_correspondence_m", false, &S::icp_max_correspondence_m, 0, 100),
+        // The ICP cloud is built per submap with the features, hence per-submap.
+        real("icp_voxel_m", true, &S::icp_voxel_m, 0, 10),
+        boolean("icp_enabled", false, &S::icp_enabled),
+        boolean("icp_point_to_plane", true, &S::icp_point_to_plane),
+        real("icp_source_voxel_factor", true, &S::icp_source_voxel_factor, 0, 100),
+        real("max_roll_pitch_rad", false, &S::max_roll_pitch_rad, 0, M_PI),
+        real("min_icp_inlier_fraction", false, &S::min_icp_inlier_fraction, 0, 1),
+        integer("min_ransac_inliers", false, &S::min_ransac_inliers, 0, 1e6),
+        boolean("consensus_from_n_TF", false, &S::consensus_from_n_TF),
+        integer("min_points", true, &S::min_points, 0, 1e9),
+        integer("min_keypoints", true, &S::min_keypoints, 0, 1e9),
+        // A timed-out submap or pair is never cached or stored, so the limits are not per-submap.
+        real("pair_time_limit_s", false, &S::pair_time_limit_s, 0.001, 1e7),
+        real("submap_time_limit_s", false, &S::submap_time_limit_s, 0.001, 1e7),
+        real("total_time_limit_s", false, &S::total_time_limit_s, 0.001, 1e7),
+        integer("seed", false, &S::seed, 0, 9.007199254740992e15),
+    };
+    return fields;
+}
+
+std::string feature_settings_fingerprint(const MatcherSettings& s) {
+    std::string out;
+    for (const auto& f : setting_fields())
+        if (f.per_submap) out += (out.empty() ? "" : "/") + f.name + "=" + f.get(s);
+    return out;
+}
+
+std::vector<std::string> setting_texts(const MatcherSettings& s) {
+    std::vector<std::string> out;
+    for (const auto& f : setting_fields()) out.push_back(f.name + "=" + f.get(s));
+    return out;
+}
 
 std::string set_matcher_setting(MatcherSettings& s, const std::string& key, const std::string& value) {
-    auto number = [&](double lo, double hi, double& out) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(value.c_str(), &end);
-        if (value.empty() || end == value.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi) {
-            std::ostringstream msg;
-            msg << "matcher setting " << key << ": '" << value << "' is not a number in [" << lo << ", " << hi << "]";
-            return msg.str();
-        }
-        out = v;
-        return "";
-    };
-    auto real = [&](double& field, double lo, double hi) { return number(lo, hi, field); };
-    auto integer = [&](int& field, double lo, double hi) {
-        double v = 0;
-        auto err = number(lo, hi, v);
-        if (err.empty() && v != std::floor(v)) err = "matcher setting " + key + ": '" + value + "' is not an integer";
-        if (err.empty()) field = static_cast<int>(v);
-        return err;
-    };
-    auto boolean = [&](bool& field) -> std::string {
-        if (value == "true" || value == "1") field = true;
-        else if (value == "false" || value == "0") field = false;
-        else return "matcher setting " + key + ": '" + value + "' is not true or false";
-        return "";
-    };
-    const std::map<std::string, std::function<std::string()>> table{
-        {"outlier_removal", [&] { return boolean(s.outlier_removal); }},
-        {"outlier_mean_k", [&] { return integer(s.outlier_mean_k, 1, 1000); }},
-        {"outlier_stddev_mul", [&] { return real(s.outlier_stddev_mul, 0.01, 100); }},
-        {"surface_points_per_radius", [&] { return real(s.surface_points_per_radius, 1, 1000); }},
-        {"unknown_samples_per_diameter", [&] { return real(s.unknown_samples_per_diameter, 2, 256); }},
-        {"collinear_inlier_fraction", [&] { return real(s.collinear_inlier_fraction, 0, 1); }},
-        {"line_threshold_m", [&] { return real(s.line_threshold_m, 0, 100); }},
-        {"ransac_iterations", [&] { return integer(s.ransac_iterations, 1, 1e7); }},
-        {"ransac_inlier_threshold_m", [&] { return real(s.ransac_inlier_threshold_m, 0, 100); }},
-        {"icp_enabled", [&] { return boolean(s.icp_enabled); }},
-        {"icp_max_iterations", [&] { return integer(s.icp_max_iterations, 1, 1000); }},
-        {"icp_max_correspondence_m", [&] { return real(s.icp_max_correspondence_m, 0, 100); }},
-        {"icp_voxel_m", [&] { return real(s.icp_voxel_m, 0, 10); }},
-        {"icp_point_to_plane", [&] { return boolean(s.icp_point_to_plane); }},
-        {"icp_source_voxel_factor", [&] { return real(s.icp_source_voxel_factor, 0, 100); }},
-        {"max_roll_pitch_rad", [&] { return real(s.max_roll_pitch_rad, 0, M_PI); }},
-        {"min_icp_inlier_fraction", [&] { return real(s.min_icp_inlier_fraction, 0, 1); }},
-        {"min_ransac_inliers", [&] { return integer(s.min_ransac_inliers, 0, 1e6); }},
-        {"consensus_from_n_TF", [&] { return boolean(s.consensus_from_n_TF); }},
-        {"ransac_threshold_from", [&]() -> std::string {
-             if (value == "v_K") s.ransac_threshold_from = MatcherSettings::ThresholdFrom::kVK;
-             else if (value == "v_TF") s.ransac_threshold_from = MatcherSettings::ThresholdFrom::kVTF;
-             else return "matcher setting " + key + ": '" + value + "' is not v_K or v_TF";
-             return "";
-         }},
-        {"lrf_method", [&]() -> std::string {
-             if (value == "shot") s.lrf_method = LrfMethod::kShot;
-             else if (value == "board") s.lrf_method = LrfMethod::kBoard;
-             else return "matcher setting " + key + ": '" + value + "' is not shot or board";
-             return "";
-         }},
-        {"viewpoint_x", [&] { return real(s.viewpoint_x, -1e6, 1e6); }},
-        {"viewpoint_y", [&] { return real(s.viewpoint_y, -1e6, 1e6); }},
-        {"viewpoint_z", [&] { return real(s.viewpoint_z, -1e6, 1e6); }},
-        {"min_points", [&] { return integer(s.min_points, 0, 1e9); }},
-        {"min_keypoints", [&] { return integer(s.min_keypoints, 0, 1e9); }},
-        {"seed", [&] {
-             double v = 0;
-             auto err = number(0, 9.007199254740992e15, v);
-             if (err.empty()) s.seed = static_cast<std::uint64_t>(v);
-             return err;
-         }},
-    };
-    const auto it = table.find(key);
-    if (it == table.end()) {
-        std::string known;
-        for (const auto& [k, f] : table) known += (known.empty() ? "" : ", ") + k;
-        return "unknown matcher setting '" + key + "' (known: " + known + ")";
-    }
-    return it->second();
+    for (const auto& f : setting_fields())
+        if (f.name == key) return f.set(s, value);
+    std::string known;
+    for (const auto& name : matcher_setting_names()) known += (known.empty() ? "" : ", ") + name;
+    return "unknown matcher setting '" + key + "' (known: " + known + ")";
 }
 
 std::string set_matcher_settings(MatcherSettings& s, const std::vector<std::string>& key_values) {
@@ -158,20 +206,9 @@ std::string set_matcher_settings(MatcherSettings& s, const std::vector<std::stri
 }
 
 std::vector<std::string> matcher_setting_names() {
-    // The table lives in set_matcher_setting (its lambdas bind the field to set); its error for
-    // an unknown key lists every key, so that list is the one source.
-    MatcherSettings s;
-    const std::string error = set_matcher_setting(s, "", "");
-    const std::string marker = "(known: ";
-    const auto begin = error.find(marker) + marker.size();
     std::vector<std::string> out;
-    std::string list = error.substr(begin, error.size() - begin - 1);
-    for (std::size_t pos = 0; pos < list.size();) {
-        const auto comma = list.find(", ", pos);
-        out.push_back(list.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos));
-        if (comma == std::string::npos) break;
-        pos = comma + 2;
-    }
+    for (const auto& f : setting_fields()) out.push_back(f.name);
+    std::sort(out.begin(), out.end());
     return out;
 }
 

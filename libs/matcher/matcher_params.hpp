@@ -3,6 +3,7 @@
 // thesis's symbols; everything else is a non-optimized setting with a fixed default.
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -120,8 +121,23 @@ struct MatcherSettings {
     int threads = 0;          // 0: hardware concurrency
 };
 
+// The one list of non-optimized settings (every field but `threads`, which does not change
+// results): its name, whether it changes per-submap features, and how to write and read it
+// as text. `--matcher`, experiments' matcher.settings, the settings a task carries, the
+// matcher version and the feature fingerprint all come from it, so none can miss a field.
+struct SettingField {
+    std::string name;
+    bool per_submap = false;
+    std::function<std::string(MatcherSettings&, const std::string&)> set;  // "" or the error
+    std::function<std::string(const MatcherSettings&)> get;                // text `set` takes back exactly
+};
+const std::vector<SettingField>& setting_fields();
+
 // Settings that change per-submap features, as a string for the cache key.
 std::string feature_settings_fingerprint(const MatcherSettings& settings);
+// "KEY=VALUE" for every setting in table order: applied to defaults by set_matcher_settings,
+// it gives back these settings (what an evaluation task carries to any worker).
+std::vector<std::string> setting_texts(const MatcherSettings& settings);
 
 // Sets one non-optimized setting by its field name ("min_ransac_inliers", "icp_enabled", ...)
 // from text, for `--matcher KEY=VALUE` (evaluate, sweep, compare). Returns an error naming the key

@@ -127,10 +127,16 @@ std::vector<Assignment> Scheduler::schedule(double now) {
     return out;
 }
 
+std::string code_revision(const std::string& matcher_version) {
+    return matcher_version.substr(0, matcher_version.find('-'));
+}
+
 bool Scheduler::compatible(const Worker& w, const JobSpec& spec, double now) const {
     if (now - w.last_seen > options_.lease_s) return false;
     if (w.info.matcher_id != spec.matcher_id || w.info.space_hash != spec.space_hash) return false;
-    return spec.matcher_version.empty() || w.info.matcher_version == spec.matcher_version;
+    if (spec.matcher_version.empty() || w.info.matcher_version == spec.matcher_version) return true;
+    return w.info.takes_settings && !spec.matcher_settings.empty() &&
+           code_revision(w.info.matcher_version) == code_revision(spec.matcher_version);
 }
 
 void Scheduler::expire_unserved(double now) {

@@ -44,7 +44,13 @@ struct WorkerInfo {
     std::string matcher_version;
     std::string space_hash;
     int slots = 1;  // shards it runs at once
+    // Runs jobs that carry settings for any version of its code revision (see code_revision).
+    bool takes_settings = false;
 };
+
+// The part of a matcher version before its first '-' ("3-1a2b3c4d" -> "3"): versions of one
+// revision differ only in settings, which a task can carry.
+std::string code_revision(const std::string& matcher_version);
 
 struct JobSpec {
     std::string dataset_id;
@@ -54,6 +60,9 @@ struct JobSpec {
     std::string space_hash;
     params::ParameterSet params;  // full rounded set
     std::vector<std::string> pair_ids;                   // results come back in this order
+    // "KEY=VALUE" settings that make matcher_version; with them, workers that take settings
+    // and share the version's code revision can run the job too.
+    std::vector<std::string> matcher_settings;
 };
 
 struct Assignment {

@@ -142,7 +142,10 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
             opt_options.run_dir = run_dir;
             if (repeated) opt_options.experiment_id = e.name + "-seed" + std::to_string(seed);
             opt_options.matcher_id = options.analytic ? "analytic" : "lru_matcher";
-            if (!options.analytic) opt_options.matcher_version = evaluation::matcher_version(settings);
+            if (!options.analytic) {
+                opt_options.matcher_version = evaluation::matcher_version(settings);
+                opt_options.matcher_settings = matcher::setting_texts(settings);
+            }
             opt_options.progress_bar = options.progress_bar;
             OptimizerService optimizer(*opt_p, opt_mirror, opt_options);
             RunSummary summary = optimizer.run();

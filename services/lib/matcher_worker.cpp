@@ -48,6 +48,7 @@ void MatcherWorker::publish_status() {
     s.matcher_version(backend_.matcher_version());
     s.space_hash(backend_.space().hash());
     s.slots(static_cast<uint32_t>(options_.slots));
+    s.takes_settings(backend_.takes_settings());
     {
         std::lock_guard<std::mutex> lock(mutex_);
         s.busy(static_cast<uint32_t>(busy_));
@@ -82,11 +83,16 @@ void MatcherWorker::task_loop() {
         v1::TaskResult r;
         r.task_id(t.task_id());
         r.worker_id(options_.worker_id);
+        const bool other_version = !t.matcher_version().empty() && t.matcher_version() != backend_.matcher_version();
         if (t.space_hash() != backend_.space().hash()) {
             r.ok(false);
             r.error("design space differs: task " + t.space_hash() + ", worker " + backend_.space().hash());
+        } else if (other_version && !backend_.takes_settings()) {
+            r.ok(false);
+            r.error("matcher version differs: task " + t.matcher_version() + ", worker " + backend_.matcher_version());
         } else {
-            TaskSpec spec{t.task_id(), t.dataset_id(), t.view(), dds::from_msg(t.params()), t.pair_ids()};
+            TaskSpec spec{t.task_id(),  t.dataset_id(),      t.view(), dds::from_msg(t.params()), t.pair_ids(),
+                          t.matcher_version(), t.matcher_settings()};
             TaskOutcome outcome;
             try {
                 outcome = backend_.run(spec);

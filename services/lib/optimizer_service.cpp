@@ -13,6 +13,7 @@
 #include "params/export.hpp"
 #include "params/yaml_util.hpp"
 #include "runtime.hpp"
+#include "scheduler/scheduler.hpp"
 #include "tuning/run_directory.hpp"
 
 namespace maptune::services {
@@ -97,8 +98,11 @@ int OptimizerService::compatible_slots(std::string* version) {
     int n = 0;
     for (const auto& [id, w] : workers_) {
         if (w.matcher_id() != options_.matcher_id || w.space_hash() != options_.experiment.space.hash()) continue;
-        if (!options_.matcher_version.empty() && w.matcher_version() != options_.matcher_version) continue;
-        if (version) *version = w.matcher_version();
+        const bool carried = w.takes_settings() && !options_.matcher_settings.empty() &&
+                             scheduler::code_revision(w.matcher_version()) ==
+                                 scheduler::code_revision(options_.matcher_version);
+        if (!options_.matcher_version.empty() && w.matcher_version() != options_.matcher_version && !carried) continue;
+        if (version) *version = options_.matcher_version.empty() ? w.matcher_version() : options_.matcher_version;
         n += static_cast<int>(w.slots());
     }
     return n;
@@ -115,6 +119,7 @@ void OptimizerService::send(const tuning::Request& r) {
     m.matcher_version(matcher_version_);
     m.space_hash(e.space.hash());
     m.params(dds::to_msg(r.params));
+    m.matcher_settings(options_.matcher_settings);
     requests_.write(m);
 }
 
@@ -229,9 +234,9 @@ RunSummary OptimizerService::run() {
             (options_.matcher_version.empty() ? "" : " version " + options_.matcher_version) +
             " with design space " + e.space.hash() + " appeared within " + fmt(options_.wait_s, 0) + " s" +
             (others.empty() ? ""
-                            : "; workers with other matcher settings: " + others +
-                                  " — start them with the experiment's settings (maptune_matcher_worker "
-                                  "--experiment FILE)"));
+                            : "; workers of other matcher versions that cannot run these settings: " + others +
+                                  " — start workers of this build, or with the experiment's settings "
+                                  "(maptune_matcher_worker --experiment FILE)"));
     }
 
     tuning::TuningRun run(e, {options_.experiment_id, options_.incarnation, options_.resend_s},

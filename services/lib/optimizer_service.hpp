@@ -30,8 +30,12 @@ struct OptimizerServiceOptions {
     std::string incarnation;              // empty: a fresh incarnation_id() (tests fix it)
     std::string matcher_id = "lru_matcher";
     // The matcher version the experiment needs (lru_matcher: from its matcher settings); only
-    // workers announcing it are used. Empty: whatever a worker of matcher_id announces.
+    // workers announcing it are used, or workers that take settings when matcher_settings
+    // are given. Empty: whatever a worker of matcher_id announces.
     std::string matcher_version;
+    // "KEY=VALUE" settings that make matcher_version, carried in every request so that any
+    // worker of the same code revision evaluates exactly this matcher.
+    std::vector<std::string> matcher_settings;
     double wait_s = 120;                  // for the dataset and the first compatible worker
     double resend_s = 15;                 // re-send an unanswered request (sample_db restarts)
     bool progress_bar = true;             // redraw a bar on a terminal

@@ -79,7 +79,7 @@ void SampleDb::loop() {
                         const auto& st = e.status;
                         const std::vector<std::string> held(st.tasks().begin(), st.tasks().end());
                         scheduler_.heartbeat({st.worker_id(), st.matcher_id(), st.matcher_version(), st.space_hash(),
-                                              static_cast<int>(st.slots())},
+                                              static_cast<int>(st.slots()), st.takes_settings()},
                                              now, st.lists_tasks() ? &held : nullptr);
                         break;
                     }
@@ -116,6 +116,8 @@ void SampleDb::loop() {
             t.params(dds::to_msg(a.job->params));
             t.pair_ids(a.pair_ids);
             t.lease_ms(static_cast<uint32_t>(options_.scheduler.lease_s * 1000));
+            t.matcher_version(a.job->matcher_version);
+            t.matcher_settings(a.job->matcher_settings);
             tasks_.write(t);
             std::lock_guard<std::mutex> lock(mutex_);
             ++stats_.tasks_sent;
@@ -249,6 +251,7 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
     spec.matcher_id = r.matcher_id();
     spec.matcher_version = r.matcher_version();
     spec.space_hash = r.space_hash();
+    spec.matcher_settings = r.matcher_settings();
     spec.params = full;
     for (const auto& p : ds->pairs(dataset::parse_view(r.view()), dataset::Reference::gt)) {
         spec.pair_ids.push_back(scoring::pair_id(p));

@@ -2,6 +2,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -27,9 +28,45 @@ LruBackend::LruBackend(DatasetMirror& mirror, params::ParameterSpace space,
                        std::size_t submap_cache_bytes)
     : datasets_(mirror),
       space_(std::move(space)),
-      matcher_(settings, cache),
+      settings_(settings),
+      cache_options_(cache),
       version_(evaluation::matcher_version(settings)),
-      submaps_(submap_cache_bytes, 1u << 20) {}
+      submaps_(submap_cache_bytes, 1u << 20) {
+    matchers_.emplace_back(version_, std::make_unique<matcher::Matcher>(settings_, cache_options_));
+}
+
+std::size_t LruBackend::matchers_held() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return matchers_.size();
+}
+
+matcher::Matcher* LruBackend::matcher_for(const TaskSpec& task, std::string* error) {
+    std::string version = task.matcher_version.empty() ? version_ : task.matcher_version;
+    auto found = std::find_if(matchers_.begin(), matchers_.end(), [&](const auto& m) { return m.first == version; });
+    if (found == matchers_.end()) {
+        if (task.matcher_settings.empty()) {
+            *error = "matcher version " + version + " differs from this worker's " + version_ +
+                     " and the task carries no settings";
+            return nullptr;
+        }
+        // A task's settings replace all of the worker's but the local ones (threads).
+        matcher::MatcherSettings settings;
+        settings.threads = settings_.threads;
+        if (auto err = matcher::set_matcher_settings(settings, task.matcher_settings); !err.empty()) {
+            *error = "task settings: " + err;
+            return nullptr;
+        }
+        if (const auto made = evaluation::matcher_version(settings); made != version) {
+            *error = "task settings make matcher version " + made + ", not the " + version + " it asks for";
+            return nullptr;
+        }
+        if (matchers_.size() >= kMaxMatchers) matchers_.pop_back();
+        matchers_.emplace_back(version, std::make_unique<matcher::Matcher>(settings, cache_options_));
+        found = std::prev(matchers_.end());
+    }
+    std::rotate(matchers_.begin(), found, std::next(found));  // most recently used first
+    return matchers_.front().second.get();
+}
 
 std::size_t LruBackend::LoadedSubmap::bytes() const {
     return sizeof(*this) + submap.cloud.capacity() * sizeof(dataset::ColoredPoint) +
@@ -63,9 +100,14 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
         return out;
     }
     std::lock_guard<std::mutex> lock(mutex_);
+    matcher::Matcher* matcher = matcher_for(task, &error);
+    if (matcher == nullptr) {
+        out.error = error;
+        return out;
+    }
     std::vector<std::shared_ptr<const LoadedSubmap>> held;  // alive for the task, evicted or not
     auto results = evaluation::match_pair_ids(
-        matcher_, task.params, task.pair_ids,
+        *matcher, task.params, task.pair_ids,
         [&](const std::string& id, std::string* why) -> const dataset::Submap* {
             auto s = submap(*ds, id, why);
             if (!s) return nullptr;

@@ -23,6 +23,10 @@ struct TaskSpec {
     std::string view;
     params::ParameterSet params;        // full rounded set
     std::vector<std::string> pair_ids;  // "idA|idB"
+    // The version the results must be of ("" = the backend's own), and the "KEY=VALUE"
+    // settings that make it (empty = the backend's own settings).
+    std::string matcher_version;
+    std::vector<std::string> matcher_settings;
 };
 
 struct TaskOutcome {
@@ -37,6 +41,9 @@ public:
     virtual std::string matcher_id() const = 0;
     virtual std::string matcher_version() const = 0;
     virtual const params::ParameterSpace& space() const = 0;
+    // true: run() honours a task's matcher_settings for any version of the backend's code
+    // revision (the part of matcher_version before '-'); false: only its own version.
+    virtual bool takes_settings() const { return false; }
     // Thread-safe; never throws: failures are outcomes.
     virtual TaskOutcome run(const TaskSpec& task) = 0;
 };
@@ -67,9 +74,13 @@ public:
     std::string matcher_id() const override { return evaluation::kMatcherId; }
     std::string matcher_version() const override { return version_; }
     const params::ParameterSpace& space() const override { return space_; }
+    bool takes_settings() const override { return true; }
     TaskOutcome run(const TaskSpec& task) override;
 
     matcher::CacheStats submap_cache_stats() const { return submaps_.stats(); }
+    // Matchers held (one per settings version recently run; at most kMaxMatchers).
+    static constexpr std::size_t kMaxMatchers = 2;
+    std::size_t matchers_held() const;
 
 private:
     struct LoadedSubmap {
@@ -78,11 +89,18 @@ private:
     };
     std::shared_ptr<const LoadedSubmap> submap(const dataset::Dataset& ds, const std::string& id, std::string* error);
 
+    // The matcher of a task's version, built from its settings on first use; null with
+    // `error` set when the settings are bad or make another version. Called under mutex_.
+    matcher::Matcher* matcher_for(const TaskSpec& task, std::string* error);
+
     DatasetCache datasets_;
     params::ParameterSpace space_;
-    matcher::Matcher matcher_;
+    matcher::MatcherSettings settings_;
+    matcher::FeatureCacheOptions cache_options_;
     std::string version_;
-    std::mutex mutex_;  // one task at a time: the matcher parallelizes inside
+    mutable std::mutex mutex_;  // one task at a time: the matcher parallelizes inside
+    // By version, most recently used first; each holds its own feature cache.
+    std::vector<std::pair<std::string, std::unique_ptr<matcher::Matcher>>> matchers_;
     matcher::LruCache<LoadedSubmap> submaps_;
 };
 

@@ -28,11 +28,12 @@ int main(int argc, char** argv) {
     try {
         options.experiment = maptune::experiment::load_experiment(experiment_file);
         options.run_dir = run_dir;
-        // The reference matcher's version follows from the experiment's matcher settings: only
-        // workers started with them (maptune_matcher_worker --experiment) evaluate this run.
+        // The reference matcher's version follows from the experiment's matcher settings, which
+        // every request carries: any worker of this code revision evaluates them.
         if (options.matcher_id == maptune::evaluation::kMatcherId) {
-            options.matcher_version = maptune::evaluation::matcher_version(
-                maptune::evaluation::experiment_matcher_settings(options.experiment));
+            const auto settings = maptune::evaluation::experiment_matcher_settings(options.experiment);
+            options.matcher_version = maptune::evaluation::matcher_version(settings);
+            options.matcher_settings = maptune::matcher::setting_texts(settings);
         }
         maptune::dds::Participant participant(dds);
         DatasetMirror mirror(participant, cache, make_id("optimizer"));

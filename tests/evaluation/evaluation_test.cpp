@@ -117,17 +117,19 @@ TEST_F(EvaluationTest, MatcherSettingsArePartOfTheKey) {
     EXPECT_EQ(matcher_version(a), matcher_version(c));
 }
 
-// Issue 12: matcher_version and the feature fingerprint are hand-kept field lists, so a setting
-// missing from them would silently mix observations of different matchers. Every settable key
-// must change the version, and those that change per-submap features the fingerprint too.
-// A new setting fails this test until it has a value here (and is in the lists).
+// Issue 12: matcher_version and the feature fingerprint come from the one settings table, so a
+// setting cannot be missed; this pins which ones are per-submap. A new setting fails this test
+// until it has a value here.
 TEST_F(EvaluationTest, EverySettableMatcherSettingChangesTheVersion) {
     const std::map<std::string, std::pair<std::string, bool>> other_value{  // value, per-submap
         {"collinear_inlier_fraction", {"0.5", false}}, {"consensus_from_n_TF", {"true", false}},
         {"icp_enabled", {"false", false}}, {"icp_max_correspondence_m", {"0.3", false}},
         {"icp_max_iterations", {"7", false}}, {"icp_point_to_plane", {"false", true}},
         {"icp_source_voxel_factor", {"3", true}}, {"icp_voxel_m", {"0.2", true}},
-        {"line_threshold_m", {"0.2", false}}, {"lrf_method", {"board", true}},
+        {"line_threshold_m", {"0.2", false}}, {"line_ransac_iterations", {"50", false}},
+        {"lrf_method", {"board", true}},
+        {"pair_time_limit_s", {"5", false}}, {"submap_time_limit_s", {"5", false}},
+        {"total_time_limit_s", {"600", false}},
         {"max_roll_pitch_rad", {"0.2", false}}, {"min_icp_inlier_fraction", {"0.3", false}},
         {"min_keypoints", {"9", true}}, {"min_points", {"99", true}},
         {"min_ransac_inliers", {"8", false}}, {"outlier_mean_k", {"9", true}},
@@ -149,6 +151,24 @@ TEST_F(EvaluationTest, EverySettableMatcherSettingChangesTheVersion) {
             << key << (it->second.second ? " does not change" : " changes") << " the feature fingerprint";
     }
     EXPECT_EQ(matcher::matcher_setting_names().size(), other_value.size());
+}
+
+// What a task carries: every setting as text, which gives back the same matcher on any worker.
+TEST_F(EvaluationTest, SettingTextsRoundTripToTheSameVersion) {
+    matcher::MatcherSettings s;
+    ASSERT_EQ(matcher::set_matcher_settings(s, {"min_ransac_inliers=0", "icp_voxel_m=0.07", "lrf_method=board",
+                                                "ransac_threshold_from=v_TF", "seed=12345678901"}),
+              "");
+    s.viewpoint_z = 1.0 / 3.0;  // not a short decimal
+    matcher::MatcherSettings back;
+    back.threads = 3;
+    ASSERT_EQ(matcher::set_matcher_settings(back, matcher::setting_texts(s)), "");
+    EXPECT_EQ(matcher_version(back), matcher_version(s));
+    EXPECT_EQ(matcher::feature_settings_fingerprint(back), matcher::feature_settings_fingerprint(s));
+    EXPECT_EQ(back.viewpoint_z, s.viewpoint_z);
+    EXPECT_EQ(back.seed, s.seed);
+    EXPECT_EQ(matcher::setting_texts(s).size(), matcher::setting_fields().size());
+    EXPECT_EQ(matcher_version(s).rfind(std::string(kMatcherCodeRevision) + "-", 0), 0u);
 }
 
 }  // namespace

@@ -186,7 +186,9 @@ TEST(OptimizerReplies, StaleAndForeignRepliesAreNeverToldToTheModel) {
 
 // Workers started with other matcher settings announce another matcher version: the optimizer
 // must not use them (the run's observations would belong to another matcher), and says so.
-TEST(OptimizerReplies, WorkersOfAnotherMatcherVersionAreNotUsed) {
+// Neither a worker of another version that cannot take settings nor one of another code
+// revision runs the experiment's matcher; the error names both.
+TEST(OptimizerReplies, WorkersThatCannotRunTheExperimentsMatcherAreNotUsed) {
     const fs::path dir = test::make_temp_dir("maptune_optimizer_version_");
     const auto shm_before = testing::fastdds_shm_files();
     const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 3, 3);
@@ -200,9 +202,13 @@ TEST(OptimizerReplies, WorkersOfAnotherMatcherVersionAreNotUsed) {
         v1::WorkerStatus ws;
         ws.worker_id("w-defaults");
         ws.matcher_id("lru_matcher");
-        ws.matcher_version("2-aaaaaaaa");
+        ws.matcher_version("3-aaaaaaaa");
         ws.space_hash(e.space.hash());
         ws.slots(1);
+        status.write(ws);
+        ws.worker_id("w-old-code");
+        ws.matcher_version("2-cccccccc");
+        ws.takes_settings(true);
         status.write(ws);
 
         services::OptimizerServiceOptions options;
@@ -210,7 +216,8 @@ TEST(OptimizerReplies, WorkersOfAnotherMatcherVersionAreNotUsed) {
         options.run_dir = dir / "run";
         options.wait_s = 2;
         options.progress_bar = false;
-        options.matcher_version = "2-bbbbbbbb";
+        options.matcher_version = "3-bbbbbbbb";
+        options.matcher_settings = {"min_ransac_inliers=0"};
         options.log = [](const std::string&) {};
         dds::Participant opt_p({domain, "", "maptune_loopback", "optimizer"});
         services::DatasetMirror mirror(opt_p, dir / "cache", "optimizer");
@@ -220,8 +227,9 @@ TEST(OptimizerReplies, WorkersOfAnotherMatcherVersionAreNotUsed) {
             FAIL() << "ran with a worker of another matcher version";
         } catch (const std::runtime_error& err) {
             const std::string what = err.what();
-            EXPECT_NE(what.find("no matcher worker for matcher 'lru_matcher' version 2-bbbbbbbb"), std::string::npos) << what;
-            EXPECT_NE(what.find("w-defaults (version 2-aaaaaaaa)"), std::string::npos) << what;
+            EXPECT_NE(what.find("no matcher worker for matcher 'lru_matcher' version 3-bbbbbbbb"), std::string::npos) << what;
+            EXPECT_NE(what.find("w-defaults (version 3-aaaaaaaa)"), std::string::npos) << what;
+            EXPECT_NE(what.find("w-old-code (version 2-cccccccc)"), std::string::npos) << what;
             EXPECT_NE(what.find("--experiment"), std::string::npos) << what;
         }
     }

@@ -18,6 +18,13 @@ namespace {
 namespace fs = std::filesystem;
 const std::string kSource = MAPTUNE_SOURCE_DIR;
 
+// The matcher version of the default settings with one changed.
+std::string matcher_version_with(const std::string& key_value) {
+    matcher::MatcherSettings s;
+    EXPECT_EQ(matcher::set_matcher_settings(s, {key_value}), "");
+    return evaluation::matcher_version(s);
+}
+
 TEST(LruBackend, RunsTheMatcherWithABoundedSubmapCache) {
     const fs::path dir = test::make_temp_dir("maptune_worker_backend_");
     const auto shm_before = testing::fastdds_shm_files();
@@ -72,6 +79,85 @@ TEST(LruBackend, RunsTheMatcherWithABoundedSubmapCache) {
         const auto failed = small.run(bad);
         EXPECT_FALSE(failed.ok);
         EXPECT_NE(failed.error.find("submap999"), std::string::npos) << failed.error;
+    }
+    testing::remove_orphaned_fastdds_shm(shm_before);
+    fs::remove_all(dir);
+}
+
+// Issue 12: matcher settings travel in the task, so a worker started with defaults evaluates an
+// experiment's settings exactly as a worker started with them would; settings that do not make
+// the version asked for, or another version without settings, are refused with the reason.
+TEST(LruBackend, RunsTheSettingsATaskCarries) {
+    const fs::path dir = test::make_temp_dir("maptune_worker_settings_");
+    const auto shm_before = testing::fastdds_shm_files();
+    const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 4, 2);
+    const dataset::Dataset ds = dataset::Dataset::open(lab);
+    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    {
+        dds::Participant p({domain, "", "maptune_loopback", "worker"});
+        services::DatasetMirror mirror(p, dir / "cache", "worker");
+        mirror.add_local(lab);
+        matcher::MatcherSettings defaults;
+        defaults.threads = 1;
+        // An experiment's settings that change which pairs match: no consensus check, PCL's
+        // RANSAC threshold, no ICP.
+        matcher::MatcherSettings experiment = defaults;
+        ASSERT_EQ(matcher::set_matcher_settings(experiment, {"min_ransac_inliers=0", "ransac_threshold_from=v_TF",
+                                                             "icp_enabled=false"}),
+                  "");
+        services::LruBackend plain(mirror, space, defaults);
+        services::LruBackend started_with(mirror, space, experiment);
+        ASSERT_NE(plain.matcher_version(), started_with.matcher_version());
+        EXPECT_TRUE(plain.takes_settings());
+
+        services::TaskSpec task;
+        task.task_id = "t1";
+        task.dataset_id = ds.manifest().id;
+        task.view = "complete";
+        task.params = space.round(space.complete({}));
+        for (const auto& pair : ds.pairs(dataset::View::complete, dataset::Reference::gt)) {
+            task.pair_ids.push_back(pair.id_a + "|" + pair.id_b);
+        }
+        const auto own = plain.run(task);
+        ASSERT_TRUE(own.ok) << own.error;
+
+        services::TaskSpec carried = task;
+        carried.matcher_version = started_with.matcher_version();
+        carried.matcher_settings = matcher::setting_texts(experiment);
+        const auto a = plain.run(carried);
+        const auto b = started_with.run(task);
+        ASSERT_TRUE(a.ok) << a.error;
+        ASSERT_TRUE(b.ok) << b.error;
+        ASSERT_EQ(a.pairs.size(), b.pairs.size());
+        int differ_from_defaults = 0;
+        for (std::size_t i = 0; i < a.pairs.size(); ++i) {
+            EXPECT_EQ(a.pairs[i].matched, b.pairs[i].matched) << a.pairs[i].pair_id;
+            EXPECT_EQ(a.pairs[i].status, b.pairs[i].status) << a.pairs[i].pair_id;
+            EXPECT_TRUE(a.pairs[i].T_a_b_est.isApprox(b.pairs[i].T_a_b_est, 1e-9)) << a.pairs[i].pair_id;
+            if (a.pairs[i].matched != own.pairs[i].matched ||
+                !a.pairs[i].T_a_b_est.isApprox(own.pairs[i].T_a_b_est, 1e-9))
+                ++differ_from_defaults;
+        }
+        EXPECT_GT(differ_from_defaults, 0) << "the carried settings must have been applied";
+        EXPECT_EQ(plain.matchers_held(), 2u);
+
+        // The task's settings must make the version it asks for.
+        services::TaskSpec lying = carried;
+        lying.matcher_settings = matcher::setting_texts(defaults);
+        lying.matcher_version = matcher_version_with("seed=7");
+        const auto refused = plain.run(lying);
+        EXPECT_FALSE(refused.ok);
+        EXPECT_NE(refused.error.find("not the " + lying.matcher_version), std::string::npos) << refused.error;
+        services::TaskSpec bad = carried;
+        bad.matcher_version = matcher_version_with("seed=7");
+        bad.matcher_settings = {"min_ransac_inliers=-1"};
+        EXPECT_NE(plain.run(bad).error.find("min_ransac_inliers"), std::string::npos);
+        services::TaskSpec bare = carried;
+        bare.matcher_settings.clear();
+        bare.matcher_version = matcher_version_with("seed=8");
+        EXPECT_NE(plain.run(bare).error.find("carries no settings"), std::string::npos);
+        EXPECT_LE(plain.matchers_held(), services::LruBackend::kMaxMatchers);
     }
     testing::remove_orphaned_fastdds_shm(shm_before);
     fs::remove_all(dir);

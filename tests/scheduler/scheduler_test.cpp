@@ -98,6 +98,36 @@ TEST(Scheduler, OnlyCompatibleWorkersGetTasks) {
     EXPECT_EQ(a[0].worker_id, "good");
 }
 
+// Issue 12: a job carrying its matcher settings runs on any worker that takes settings and
+// shares the version's code revision; without settings, only on workers of that exact version.
+TEST(Scheduler, WorkersThatTakeSettingsRunJobsOfTheirRevision) {
+    auto versioned = [](const std::string& id, const std::string& version, bool takes) {
+        WorkerInfo w = worker(id);
+        w.matcher_version = version;
+        w.takes_settings = takes;
+        return w;
+    };
+    Scheduler s;
+    s.heartbeat(versioned("fixed", "3-aaaaaaaa", false), 0);
+    s.heartbeat(versioned("old_code", "2-bbbbbbbb", true), 0);
+    JobSpec bare = job(1);
+    bare.matcher_version = "3-bbbbbbbb";
+    s.submit("bare", bare, "opt", 0);
+    EXPECT_TRUE(s.schedule(0).empty()) << "no worker has 3-bbbbbbbb and the job carries no settings";
+    s.heartbeat(versioned("takes", "3-aaaaaaaa", true), 0.1);
+    EXPECT_TRUE(s.schedule(0.1).empty()) << "settings are needed to run another version";
+    JobSpec carried = bare;
+    carried.matcher_settings = {"min_ransac_inliers=0"};
+    s.submit("carried", carried, "opt", 0.2);
+    const auto a = s.schedule(0.2);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_EQ(a[0].worker_id, "takes");
+    EXPECT_EQ(a[0].job_key, "carried");
+    EXPECT_EQ(a[0].job->matcher_settings, carried.matcher_settings);
+    EXPECT_EQ(code_revision("3-bbbbbbbb"), "3");
+    EXPECT_EQ(code_revision("1"), "1");
+}
+
 TEST(Scheduler, DuplicateConcurrentRequestsRunOnce) {
     Scheduler s({10.0, 0, 3});
     s.heartbeat(worker("w1", 4), 0);
