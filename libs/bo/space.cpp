@@ -13,6 +13,7 @@ SearchSpace::SearchSpace(std::vector<ParameterSpec> specs) : specs_(std::move(sp
             s.low = std::ceil(s.low);
             s.high = std::floor(s.high);
         }
+        if (s.is_integer || !(s.step > 0.0) || !std::isfinite(s.step)) s.step = 0.0;
         if (!(s.high >= s.low))
             throw std::invalid_argument("SearchSpace: high < low for " + s.name);
         if (s.log_scale && (s.low <= 0.0 || (s.is_integer && s.low < 1.0))) {
@@ -24,6 +25,17 @@ SearchSpace::SearchSpace(std::vector<ParameterSpec> specs) : specs_(std::move(sp
 
 bool SearchSpace::has_integers() const {
     return std::any_of(specs_.begin(), specs_.end(), [](const auto& s) { return s.is_integer; });
+}
+
+bool SearchSpace::has_grid() const {
+    return std::any_of(specs_.begin(), specs_.end(), [](const auto& s) { return s.is_integer || s.step > 0.0; });
+}
+
+double SearchSpace::grid_value(int j, double x) const {
+    const ParameterSpec& s = specs_[static_cast<std::size_t>(j)];
+    const double first = std::ceil(s.low / s.step - 1e-9), last = std::floor(s.high / s.step + 1e-9);
+    if (first > last) return x;  // no grid point inside the bounds
+    return std::clamp(std::round(x / s.step), first, last) * s.step;
 }
 
 double SearchSpace::transform(int j, double x) const {
@@ -53,7 +65,7 @@ std::vector<double> SearchSpace::to_values(const Eigen::VectorXd& u) const {
             const double lo = transform(j, s.low);
             const double hi = transform(j, s.high);
             const double x = inverse_transform(j, lo + std::clamp(u(j), 0.0, 1.0) * (hi - lo));
-            values[static_cast<std::size_t>(j)] = std::clamp(x, s.low, s.high);
+            values[static_cast<std::size_t>(j)] = s.step > 0.0 ? grid_value(j, x) : std::clamp(x, s.low, s.high);
         }
     }
     return values;
@@ -92,7 +104,7 @@ Eigen::VectorXd SearchSpace::to_model_input(const Eigen::VectorXd& u) const {
 }
 
 Eigen::VectorXd SearchSpace::snap(const Eigen::VectorXd& u) const {
-    if (!has_integers()) return u.cwiseMax(0.0).cwiseMin(1.0);
+    if (!has_grid()) return u.cwiseMax(0.0).cwiseMin(1.0);
     return from_values(to_values(u));
 }
 

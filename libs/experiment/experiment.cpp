@@ -1,6 +1,7 @@
 #include "experiment/experiment.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <set>
 
@@ -336,7 +337,10 @@ std::vector<bo::ParameterSpec> search_space(const Experiment& e) {
     std::vector<bo::ParameterSpec> out;
     for (const auto& name : e.optimize) {
         const params::ParameterSpec& s = *e.space.find(name);
-        out.push_back({s.name, s.low, s.high, s.type == params::ParamType::kInt, s.log_scale});
+        const bool is_int = s.type == params::ParamType::kInt;
+        // Floats are evaluated at `decimals`: proposing between those values would only
+        // repeat an evaluation under another name.
+        out.push_back({s.name, s.low, s.high, is_int, s.log_scale, is_int ? 0.0 : std::pow(10.0, -s.decimals)});
     }
     return out;
 }

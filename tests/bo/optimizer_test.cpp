@@ -219,6 +219,22 @@ TEST(OptimizerTest, BatchesNeverDuplicateOnSmallIntegerSpace) {
     EXPECT_EQ(opt.ask(2).size(), 2u);  // exhausted space still answers
 }
 
+// A flat objective on a coarse float grid (every set scores the same, as a dead region does):
+// the proposals never repeat a grid point, so no evaluation is spent twice.
+TEST(OptimizerTest, SteppedFloatsAreNeverProposedTwice) {
+    const std::vector<ParameterSpec> specs = {{"a", 0.0, 1.0, false, false, 0.1}, {"b", 0.0, 0.5, false, false, 0.1}};
+    OptimizerOptions o = fast_options(5);
+    Optimizer opt(specs, o);
+    std::set<std::pair<long, long>> seen;
+    for (int i = 0; i < 40; ++i) {
+        const auto p = opt.ask(1).at(0);
+        const long a = std::lround(p.values[0] * 10), b = std::lround(p.values[1] * 10);
+        EXPECT_NEAR(p.values[0] * 10, static_cast<double>(a), 1e-9);
+        EXPECT_TRUE(seen.insert({a, b}).second) << "proposal " << i << " repeats " << p.values[0] << "," << p.values[1];
+        opt.tell(p.id, 1.0);
+    }
+}
+
 TEST(OptimizerTest, PendingPointsAreAccountedForAcrossAsks) {
     const TestFunction fn = branin();
     Optimizer opt(fn.space, fast_options(4));

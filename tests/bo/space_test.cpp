@@ -51,6 +51,28 @@ TEST(SearchSpaceTest, LogScaledIntegersCoverAllValues) {
     EXPECT_EQ(space.canonical({41.7})[0], 42.0);
 }
 
+// A float with a step is proposed on its grid only: what the objective evaluates after
+// rounding to `decimals`, so two proposals are never one evaluation under two names.
+TEST(SearchSpaceTest, SteppedFloatsLieOnTheirGridInsideTheBounds) {
+    const SearchSpace space({{"x", 0.105, 2.0, false, false, 0.01}, {"y", 0.1, 10.0, false, true, 0.1}});
+    EXPECT_TRUE(space.has_grid());
+    for (int i = 0; i <= 1000; ++i) {
+        const double u = i / 1000.0;
+        const auto v = space.to_values(Eigen::VectorXd::Constant(2, u));
+        EXPECT_NEAR(v[0] * 100, std::round(v[0] * 100), 1e-9) << u;
+        EXPECT_NEAR(v[1] * 10, std::round(v[1] * 10), 1e-9) << u;
+        EXPECT_GE(v[0], 0.105);  // 0.10 is below the bound: the first grid value is 0.11
+        EXPECT_LE(v[1], 10.0 + 1e-12);
+        // snap() gives the canonical u of those values, which maps back to them.
+        const auto again = space.to_values(space.snap(Eigen::VectorXd::Constant(2, u)));
+        EXPECT_NEAR(again[0], v[0], 1e-12);
+        EXPECT_NEAR(again[1], v[1], 1e-12);
+    }
+    EXPECT_NEAR(space.canonical({0.1234, 3.33})[0], 0.12, 1e-12);
+    EXPECT_NEAR(space.canonical({0.1234, 3.33})[1], 3.3, 1e-12);
+    EXPECT_FALSE(SearchSpace({{"x", 0.0, 1.0}}).has_grid());
+}
+
 TEST(SearchSpaceTest, RejectsBadBounds) {
     EXPECT_THROW(SearchSpace({{"a", 1.0, 0.0}}), std::invalid_argument);
     EXPECT_THROW(SearchSpace({{"a", 0.0, 1.0, false, true}}), std::invalid_argument);
