@@ -82,6 +82,7 @@ RegretSummary summarize(const std::string& function, const std::string& acquisit
     for (const RegretRun& r : runs) {
         if (!r.regret.empty()) finals.push_back(r.regret.back());
     }
+    s.finals = finals;
     if (!finals.empty()) {
         std::sort(finals.begin(), finals.end());
         const auto k =

@@ -32,6 +32,7 @@ struct RegretSummary {
     std::vector<double> median_curve;   // median regret after each evaluation
     double final_p90 = 0.0;             // 90th percentile over seeds of the final regret
     double final_max = 0.0;             // worst seed's final regret
+    std::vector<double> finals;         // final regret of each seed, in seed order
     double median_ask_ms = 0.0;         // over all asks of all seeds
     double max_ask_ms = 0.0;
     double total_seconds = 0.0;

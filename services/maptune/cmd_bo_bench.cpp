@@ -156,6 +156,7 @@ int run_bo_bench(const BoBenchOptions& o) {
                                                 {"median_curve", sm.median_curve},
                                                 {"final_regret_p90", sm.final_p90},
                                                 {"final_regret_max", sm.final_max},
+                                                {"final_regrets", sm.finals},
                                                 {"ask_ms_median", sm.median_ask_ms},
                                                 {"ask_ms_max", sm.max_ask_ms}});
                 }
