@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libpcl-dev liboctomap-dev
   libfastrtps-dev fastddsgen fastdds-tools
+  cyclonedds-dev cyclonedds-tools
   docker-compose
 )
 # Node.js renders reports; a machine that has it from elsewhere keeps its own.

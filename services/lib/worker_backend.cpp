@@ -7,6 +7,7 @@
 #include <cmath>
 #include <thread>
 
+#include "analytic/analytic.hpp"
 #include "dataset/io.hpp"
 
 namespace maptune::services {
@@ -126,33 +127,14 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
 
 // ---- AnalyticBackend ----
 
-namespace {
-
-// Uniform in [0, 1) from a string, stable across platforms.
-double unit_hash(const std::string& s) {
-    return static_cast<double>(dataset::fnv1a(s) >> 11) * (1.0 / 9007199254740992.0);
-}
-
-}  // namespace
-
 AnalyticBackend::AnalyticBackend(DatasetMirror& mirror, params::ParameterSpace space,
                                  AnalyticOptions options)
     : datasets_(mirror), space_(std::move(space)), options_(std::move(options)), rng_state_(options_.seed) {
-    if (options_.optimum.empty()) {
-        for (std::size_t i = 0; i < space_.size(); ++i) options_.optimum.push_back(0.3 + 0.4 * unit_hash("opt" + std::to_string(i)));
-    }
+    if (options_.optimum.empty()) options_.optimum = analytic::default_optimum(space_.size());
 }
 
 double AnalyticBackend::quality(const params::ParameterSet& params) const {
-    double d2 = 0;
-    for (std::size_t i = 0; i < space_.size(); ++i) {
-        const auto& s = space_.specs()[i];
-        const double u = s.high > s.low ? (params.get(s.name) - s.low) / (s.high - s.low) : 0.5;
-        const double diff = u - options_.optimum[i];
-        d2 += diff * diff;
-    }
-    // Smooth single bump: 1 at the optimum, ~0.37 at unit-cube distance 0.5.
-    return std::exp(-d2 / (2 * 0.25 * 0.25));
+    return analytic::quality(space_, options_.optimum, params);
 }
 
 TaskOutcome AnalyticBackend::run(const TaskSpec& task) {
@@ -171,39 +153,17 @@ TaskOutcome AnalyticBackend::run(const TaskSpec& task) {
             return out;
         }
     }
-    std::map<std::string, Eigen::Isometry3d> reference;
-    for (const auto& p : ds->pairs(dataset::View::complete, dataset::Reference::gt)) {
-        reference[scoring::pair_id(p)] = p.T_a_b;
+    if (options_.delay_per_pair_s > 0) {
+        std::this_thread::sleep_for(
+            std::chrono::duration<double>(options_.delay_per_pair_s * static_cast<double>(task.pair_ids.size())));
     }
-    const double q = quality(task.params);
-    const std::string key = space_.canonical_key(task.params);
-    for (const auto& pid : task.pair_ids) {
-        const auto it = reference.find(pid);
-        if (it == reference.end()) {
-            out.error = "pair '" + pid + "' is not in dataset " + task.dataset_id;
-            out.pairs.clear();
-            return out;
-        }
-        if (options_.delay_per_pair_s > 0) {
-            std::this_thread::sleep_for(std::chrono::duration<double>(options_.delay_per_pair_s));
-        }
-        store::PairRecord r;
-        r.pair_id = pid;
-        r.status = store::PairStatus::kOk;
-        r.matched = unit_hash(key + "#" + pid) < 0.2 + 0.75 * q;
-        if (r.matched) {
-            // Error 0.02 m at the optimum, growing to ~0.8 m far from it, in a hashed direction.
-            const double e = 0.02 + 0.8 * (1 - q);
-            const double az = 2 * M_PI * unit_hash("az" + pid), el = M_PI * (unit_hash("el" + pid) - 0.5);
-            Eigen::Isometry3d T = it->second;
-            T.translation() += e * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
-            r.T_a_b_est = T.matrix();
-        } else {
-            r.status = store::PairStatus::kNoMatch;
-        }
-        r.duration_s = options_.delay_per_pair_s;
-        out.pairs.push_back(std::move(r));
+    auto pairs = analytic::evaluate(*ds, space_, options_.optimum, task.params, task.pair_ids,
+                                    options_.delay_per_pair_s, &error);
+    if (!pairs) {
+        out.error = error;
+        return out;
     }
+    out.pairs = std::move(*pairs);
     out.ok = true;
     return out;
 }

@@ -167,6 +167,25 @@ TEST_F(ServicesTest, TuningRunWithThreeWorkers) {
     EXPECT_LE(store.count(), 10u);
 }
 
+#ifdef MAPTUNE_BIN_CYCLONE_WORKER
+// Issue 13: a worker on another DDS implementation (Eclipse Cyclone DDS, types from idlc, no
+// Fast DDS code) is the only worker of a run of maptune's Fast DDS services: the run finishes
+// and every stored observation equals what maptune's own analytic worker computes.
+TEST_F(ServicesTest, TuningRunWithTheOnlyWorkerOnCycloneDds) {
+    dataset_server();
+    sample_db();
+    Process& cyclone = start("cyclone_worker", {MAPTUNE_BIN_CYCLONE_WORKER, "--id", "cyclone1", "--dataset-dir",
+                                                lab().string(), "--space", kSource + "/configs/spaces/lru_matcher.yaml"});
+    Process& opt = optimizer(experiment(8));
+    ASSERT_EQ(opt.wait(240), 0) << opt.output();
+    EXPECT_EQ(trials(), 8u);
+    expect_store_matches_direct_computation();
+    store::ObservationStore store(db());
+    EXPECT_EQ(store.count(), 8u);
+    EXPECT_NE(cyclone.output().find("ready on domain"), std::string::npos) << cyclone.output();
+}
+#endif
+
 TEST_F(ServicesTest, LateWatchSubscriberGetsTheCurrentBestAtOnce) {
     dataset_server();
     sample_db();
