@@ -294,7 +294,15 @@ Experiment load_experiment(const std::string& file) {
     if (root["matcher"].IsDefined()) {
         const YamlPath p = top.child("matcher");
         const YAML::Node n = root["matcher"];
-        params::check_keys(n, p, {"threads", "pair_time_limit_s", "total_time_limit_s", "settings"});
+        params::check_keys(n, p, {"id", "threads", "pair_time_limit_s", "total_time_limit_s", "settings"});
+        if (n["id"].IsDefined()) {
+            e.matcher_id = params::read_string(n["id"], p.child("id"));
+            if (e.matcher_id.empty() || e.matcher_id.find_first_of(" \t/") != std::string::npos)
+                p.child("id").fail(n["id"], "expected a matcher id without spaces or '/' (e.g. lru_matcher)");
+            if (e.matcher_id != "lru_matcher" && n["settings"].IsDefined())
+                p.child("settings").fail(n["settings"], "settings apply to the reference matcher (lru_matcher) only, not to '" +
+                                                            e.matcher_id + "'");
+        }
         if (n["settings"].IsDefined()) {
             const YamlPath sp = p.child("settings");
             params::require_map(n["settings"], sp);

@@ -62,7 +62,11 @@ struct Experiment {
     bool dead_regions = true;                // model where p = 0 (matcher experiments only)
     std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline
     std::vector<std::string> start_point_files;
-    // Non-optimized matcher settings.
+    // matcher.id: which matcher evaluates the sets — the reference pipeline (lru_matcher), the
+    // analytic test objective (analytic), or a plug-in's id (its workers are started apart:
+    // `maptune run --external-workers`).
+    std::string matcher_id = "lru_matcher";
+    // Non-optimized matcher settings (lru_matcher only).
     int matcher_threads = 0;                 // 0 = hardware concurrency
     // matcher.settings: non-optimized matcher settings KEY: VALUE (docs/matcher.md, as
     // `--matcher KEY=VALUE`); part of the matcher version. `where` names file, line and key.

@@ -80,10 +80,23 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         std::random_device rd;
         domain = std::uniform_int_distribution<int>(1, 200)(rd);
     }
-    const int n_workers = options.workers > 0 ? options.workers : e.workers;
-    std::cout << "run directory " << root.string() << ", store " << db << ", DDS domain " << domain
-              << " (loopback), " << n_workers << (options.analytic ? " analytic" : "") << " worker(s)"
-              << (repeated ? ", " + std::to_string(seeds.size()) + " seeds" : "") << std::endl;
+    const std::string matcher_id = options.analytic ? "analytic" : e.matcher_id;
+    const bool reference = matcher_id == evaluation::kMatcherId;
+    if (!options.external_workers && !reference && matcher_id != "analytic") {
+        std::cerr << "maptune run: matcher '" << matcher_id << "' (" << options.experiment_file
+                  << ": matcher.id) runs in its own workers: start them on a DDS domain and run with "
+                     "--external-workers --domain N\n";
+        return 2;
+    }
+    const int n_workers = options.external_workers ? 0 : options.workers > 0 ? options.workers : e.workers;
+    std::cout << "run directory " << root.string() << ", store " << db << ", DDS domain " << domain << " (loopback), ";
+    if (options.external_workers) {
+        std::cout << "external workers of matcher '" << matcher_id << "' (design space " << e.space.hash()
+                  << "): start them with --domain " << domain << "; waiting up to " << options.wait_s << " s";
+    } else {
+        std::cout << n_workers << (matcher_id == "analytic" ? " analytic" : "") << " worker(s)";
+    }
+    std::cout << (repeated ? ", " + std::to_string(seeds.size()) + " seeds" : "") << std::endl;
     if (result) {
         result->experiment = e;
         result->root = root;
@@ -107,7 +120,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         SampleDb sample_db(*db_p, db_mirror, db_options);
 
         const matcher::MatcherSettings settings = evaluation::experiment_matcher_settings(
-            e, std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / n_workers));
+            e, std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / std::max(1, n_workers)));
         std::vector<std::unique_ptr<dds::Participant>> worker_ps;
         std::vector<std::unique_ptr<DatasetMirror>> mirrors;
         std::vector<std::unique_ptr<WorkerBackend>> backends;
@@ -118,7 +131,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
                                                               "worker" + std::to_string(i)));
             // Embedded workers read the dataset directory directly: no copy.
             mirrors.back()->add_local(e.dataset_dir);
-            if (options.analytic) {
+            if (!reference) {
                 backends.push_back(std::make_unique<AnalyticBackend>(*mirrors.back(), e.space));
             } else {
                 backends.push_back(std::make_unique<LruBackend>(*mirrors.back(), e.space, settings));
@@ -141,11 +154,14 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
             opt_options.experiment = seeded;
             opt_options.run_dir = run_dir;
             if (repeated) opt_options.experiment_id = e.name + "-seed" + std::to_string(seed);
-            opt_options.matcher_id = options.analytic ? "analytic" : "lru_matcher";
-            if (!options.analytic) {
+            opt_options.matcher_id = matcher_id;
+            // The reference matcher's settings travel in every request, so standalone workers of
+            // this build evaluate exactly them; another matcher's version is whatever its workers say.
+            if (reference) {
                 opt_options.matcher_version = evaluation::matcher_version(settings);
                 opt_options.matcher_settings = matcher::setting_texts(settings);
             }
+            opt_options.wait_s = options.wait_s;
             opt_options.progress_bar = options.progress_bar;
             OptimizerService optimizer(*opt_p, opt_mirror, opt_options);
             RunSummary summary = optimizer.run();

@@ -19,6 +19,10 @@ struct EmbeddedOptions {
     int workers = 0;                 // 0: the experiment's
     int domain_id = -1;              // -1: random in [1, 200]
     bool analytic = false;           // the analytic test matcher instead of the PCL pipeline
+    // Start no workers: wait for workers started apart (plug-ins, other machines) of the
+    // experiment's matcher.id on this domain, up to `wait_s` for the first one.
+    bool external_workers = false;
+    double wait_s = 120;
     bool progress_bar = true;
     std::vector<std::uint64_t> seeds;  // empty: the experiment's `seeds`, else its one seed
 };

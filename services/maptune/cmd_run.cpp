@@ -19,8 +19,9 @@ void validate(const services::EmbeddedOptions& opt, const services::EmbeddedResu
               int& exit_code) {
     const auto& e = result.experiment;
     if (skip || e.validate.empty()) return;
-    if (opt.analytic) {
-        std::cout << "\nvalidation skipped: the analytic test matcher has no held-out views\n";
+    if (opt.analytic || e.matcher_id != "lru_matcher") {
+        std::cout << "\nvalidation skipped: it runs the reference matcher locally, and this run's matcher is '"
+                  << (opt.analytic ? std::string("analytic") : e.matcher_id) << "'\n";
         return;
     }
     try {
@@ -62,6 +63,11 @@ void add_run_command(CLI::App& app, int& exit_code) {
         ->check(CLI::Range(0, 232));
     cmd->add_flag("--analytic", opt->analytic,
                   "use the analytic test matcher instead of the PCL pipeline (for trying things fast)");
+    cmd->add_flag("--external-workers", opt->external_workers,
+                  "start no matcher workers: wait for workers of the experiment's matcher.id started apart "
+                  "(plug-ins, other machines) on --domain");
+    cmd->add_option("--wait", opt->wait_s, "seconds to wait for the first compatible worker (default: 120)")
+        ->check(CLI::Range(1.0, 86400.0));
     cmd->add_flag("!--no-progress", opt->progress_bar, "no progress bar");
     cmd->add_option("--seeds", opt->seeds,
                     "optimizer seeds, e.g. 1,2,3: one run directory per seed (seed-<n>) sharing one store "

@@ -171,6 +171,8 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "validate: [{dataset: a, m_star: 3, m_star_per_pair: 0.1}]\n", "not both");
     expect_error(head + "matcher: {settings: [a, b]}\n", "matcher.settings");
     expect_error(head + "matcher: {settings: {lrf_method: [a]}}\n", "matcher.settings.lrf_method: expected a value");
+    expect_error(head + "matcher: {id: my_icp, settings: {seed: 3}}\n", "settings apply to the reference matcher");
+    expect_error(head + "matcher: {id: 'a b'}\n", "matcher.id: expected a matcher id");
     expect_error(head + "validate: [{dataset: a/x}, {dataset: b/x}]\n", "label 'x' used twice");
     expect_error(head + "validate: [{dataset: a, reference: lidar}]\n", "validate[0].reference: expected one of");
     expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: mars}}}]\n",

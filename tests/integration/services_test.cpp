@@ -184,6 +184,32 @@ TEST_F(ServicesTest, TuningRunWithTheOnlyWorkerOnCycloneDds) {
     EXPECT_EQ(store.count(), 8u);
     EXPECT_NE(cyclone.output().find("ready on domain"), std::string::npos) << cyclone.output();
 }
+
+// Issue 13: `maptune run --external-workers` starts everything but the workers and tunes with
+// the plug-in workers it finds on its domain (here the Cyclone DDS one, of matcher.id analytic).
+TEST_F(ServicesTest, RunWithExternalWorkersTunesWithAPlugIn) {
+    const fs::path exp = dir_ / "external.yaml";
+    std::ofstream(exp) << "name: external\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
+                       << "dataset: " << lab().string() << "\nview: complete\nreference: gt\n"
+                       << "budget: {evaluations: 6}\noptimizer: {seed: 3}\nmatcher: {id: analytic}\n";
+    // Without workers of its own the run refuses a plug-in matcher unless told to wait for them.
+    std::ofstream(dir_ / "plugin.yaml") << "name: plugin\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
+                                        << "dataset: " << lab().string() << "\nmatcher: {id: my_matcher}\n";
+    Process& refused = start("refused", {MAPTUNE_BIN_CLI, "run", "--experiment", (dir_ / "plugin.yaml").string(),
+                                         "--run-dir", (dir_ / "refused").string(), "--no-progress"});
+    EXPECT_EQ(refused.wait(60), 2) << refused.output();
+    EXPECT_NE(refused.output().find("--external-workers"), std::string::npos) << refused.output();
+
+    Process& run = start("run", {MAPTUNE_BIN_CLI, "run", "--experiment", exp.string(), "--run-dir",
+                                 run_dir().string(), "--db", db(), "--external-workers", "--wait", "60",
+                                 "--no-progress", "--no-report"});
+    start("cyclone_worker", {MAPTUNE_BIN_CYCLONE_WORKER, "--id", "cyclone2", "--dataset-dir", lab().string(),
+                             "--space", kSource + "/configs/spaces/lru_matcher.yaml"});
+    ASSERT_EQ(run.wait(240), 0) << run.output();
+    EXPECT_NE(run.output().find("external workers of matcher 'analytic'"), std::string::npos) << run.output();
+    EXPECT_EQ(trials(), 6u);
+    expect_store_matches_direct_computation();
+}
 #endif
 
 TEST_F(ServicesTest, LateWatchSubscriberGetsTheCurrentBestAtOnce) {

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <memory>
 #include <random>
+#include <set>
 
 #include "dataset/dataset.hpp"
 #include "dataset_mirror.hpp"
@@ -25,23 +27,27 @@ std::string matcher_version_with(const std::string& key_value) {
     return evaluation::matcher_version(s);
 }
 
-TEST(LruBackend, RunsTheMatcherWithABoundedSubmapCache) {
-    const fs::path dir = test::make_temp_dir("maptune_worker_backend_");
-    const auto shm_before = testing::fastdds_shm_files();
-    const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 4, 2);
-    const dataset::Dataset ds = dataset::Dataset::open(lab);
-    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
-    {
-        dds::Participant p({domain, "", "maptune_loopback", "worker"});
-        services::DatasetMirror mirror(p, dir / "cache", "worker");
-        mirror.add_local(lab);
-        matcher::MatcherSettings settings;
-        settings.threads = 1;
-        // Room for about one submap: every new one evicts the least recently used.
-        services::LruBackend small(mirror, space, settings, {}, 1);
-        services::LruBackend roomy(mirror, space, settings);
-
+// A tiny lab (one run of 4 submaps: 6 complete pairs) behind a mirror on a private domain.
+class LruBackend : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir = test::make_temp_dir("maptune_worker_backend_");
+        shm_before = testing::fastdds_shm_files();
+        lab = test::generate_tiny_dataset(dir, "lab", 1, 4, 2);
+        const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+        participant = std::make_unique<dds::Participant>(dds::ParticipantOptions{domain, "", "maptune_loopback", "worker"});
+        mirror = std::make_unique<services::DatasetMirror>(*participant, dir / "cache", "worker");
+        mirror->add_local(lab);
+    }
+    void TearDown() override {
+        mirror.reset();
+        participant.reset();
+        testing::remove_orphaned_fastdds_shm(shm_before);
+        fs::remove_all(dir);
+    }
+    // The baseline on every complete pair.
+    services::TaskSpec complete_task() const {
+        const dataset::Dataset ds = dataset::Dataset::open(lab);
         services::TaskSpec task;
         task.task_id = "t1";
         task.dataset_id = ds.manifest().id;
@@ -50,6 +56,25 @@ TEST(LruBackend, RunsTheMatcherWithABoundedSubmapCache) {
         for (const auto& pair : ds.pairs(dataset::View::complete, dataset::Reference::gt)) {
             task.pair_ids.push_back(pair.id_a + "|" + pair.id_b);
         }
+        return task;
+    }
+
+    fs::path dir, lab;
+    std::set<std::string> shm_before;
+    const params::ParameterSpace space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+    std::unique_ptr<dds::Participant> participant;
+    std::unique_ptr<services::DatasetMirror> mirror;
+};
+
+TEST_F(LruBackend, RunsTheMatcherWithABoundedSubmapCache) {
+    {
+        matcher::MatcherSettings settings;
+        settings.threads = 1;
+        // Room for about one submap: every new one evicts the least recently used.
+        services::LruBackend small(*mirror, space, settings, {}, 1);
+        services::LruBackend roomy(*mirror, space, settings);
+
+        const services::TaskSpec task = complete_task();
         ASSERT_EQ(task.pair_ids.size(), 6u);
 
         const auto a = small.run(task);
@@ -80,24 +105,13 @@ TEST(LruBackend, RunsTheMatcherWithABoundedSubmapCache) {
         EXPECT_FALSE(failed.ok);
         EXPECT_NE(failed.error.find("submap999"), std::string::npos) << failed.error;
     }
-    testing::remove_orphaned_fastdds_shm(shm_before);
-    fs::remove_all(dir);
 }
 
 // Issue 12: matcher settings travel in the task, so a worker started with defaults evaluates an
 // experiment's settings exactly as a worker started with them would; settings that do not make
 // the version asked for, or another version without settings, are refused with the reason.
-TEST(LruBackend, RunsTheSettingsATaskCarries) {
-    const fs::path dir = test::make_temp_dir("maptune_worker_settings_");
-    const auto shm_before = testing::fastdds_shm_files();
-    const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 4, 2);
-    const dataset::Dataset ds = dataset::Dataset::open(lab);
-    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+TEST_F(LruBackend, RunsTheSettingsATaskCarries) {
     {
-        dds::Participant p({domain, "", "maptune_loopback", "worker"});
-        services::DatasetMirror mirror(p, dir / "cache", "worker");
-        mirror.add_local(lab);
         matcher::MatcherSettings defaults;
         defaults.threads = 1;
         // An experiment's settings that change which pairs match: no consensus check, PCL's
@@ -106,19 +120,12 @@ TEST(LruBackend, RunsTheSettingsATaskCarries) {
         ASSERT_EQ(matcher::set_matcher_settings(experiment, {"min_ransac_inliers=0", "ransac_threshold_from=v_TF",
                                                              "icp_enabled=false"}),
                   "");
-        services::LruBackend plain(mirror, space, defaults);
-        services::LruBackend started_with(mirror, space, experiment);
+        services::LruBackend plain(*mirror, space, defaults);
+        services::LruBackend started_with(*mirror, space, experiment);
         ASSERT_NE(plain.matcher_version(), started_with.matcher_version());
         EXPECT_TRUE(plain.takes_settings());
 
-        services::TaskSpec task;
-        task.task_id = "t1";
-        task.dataset_id = ds.manifest().id;
-        task.view = "complete";
-        task.params = space.round(space.complete({}));
-        for (const auto& pair : ds.pairs(dataset::View::complete, dataset::Reference::gt)) {
-            task.pair_ids.push_back(pair.id_a + "|" + pair.id_b);
-        }
+        const services::TaskSpec task = complete_task();
         const auto own = plain.run(task);
         ASSERT_TRUE(own.ok) << own.error;
 
@@ -159,8 +166,6 @@ TEST(LruBackend, RunsTheSettingsATaskCarries) {
         EXPECT_NE(plain.run(bare).error.find("carries no settings"), std::string::npos);
         EXPECT_LE(plain.matchers_held(), services::LruBackend::kMaxMatchers);
     }
-    testing::remove_orphaned_fastdds_shm(shm_before);
-    fs::remove_all(dir);
 }
 
 }  // namespace
