@@ -88,6 +88,7 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"floor_tile_contrast", r(c.floor_tile_contrast, 0, 1)},
         {"rock_facets", i(c.rock_facets, 0, 64)},
         {"rock_molds", i(c.rock_molds, 0, 100000)},
+        {"rock_roughness_m", r(c.rock_roughness_m, 0, 1)},
         {"image_width", i(c.image_width, 8, 4096)},
         {"image_height", i(c.image_height, 8, 4096)},
         {"hfov_deg", r(c.hfov_deg, 1, 170)},
@@ -263,7 +264,8 @@ class World {
 public:
     World(const SimConfig& c, std::uint64_t seed)
         : lab_(c.world == "lab"), seed_(seed), rock_var_(static_cast<float>(c.rock_colour_variation)),
-          floor_contrast_(static_cast<float>(c.floor_tile_contrast)), facets_(c.rock_facets), molds_(c.rock_molds) {
+          floor_contrast_(static_cast<float>(c.floor_tile_contrast)), facets_(c.rock_facets), molds_(c.rock_molds),
+          roughness_(static_cast<float>(c.rock_roughness_m)) {
         if (c.world != "lab" && c.world != "moon") {
             throw std::invalid_argument("unknown world '" + c.world + "' (lab|moon)");
         }
@@ -475,6 +477,12 @@ private:
                     const double bx = molds_ > 0 ? u : x, by = molds_ > 0 ? v : y;
                     hr = static_cast<float>(h) + 0.004f * (value_noise3(static_cast<float>(bx * 25), static_cast<float>(by * 25), 0, bump_seed) - 0.5f);
                 }
+                if (roughness_ > 0) {
+                    // In the rock's own frame, so a turned cast keeps its relief.
+                    const double ru = c * x + s * y, rv = -s * x + c * y;
+                    hr += roughness_ * 2.f * (fbm2(static_cast<float>(ru / 0.08), static_cast<float>(rv / 0.08), bump_seed + 0x524fu, 2) - 0.5f);
+                    if (hr <= 0) continue;
+                }
                 float& cell = h_[static_cast<std::size_t>(j) * nx_ + i];
                 const float base = additive ? ground_[static_cast<std::size_t>(j) * nx_ + i] : 0.f;
                 if (base + hr > cell) {
@@ -630,6 +638,7 @@ private:
     float rock_var_ = 1, floor_contrast_ = 1;
     int facets_ = 0;
     int molds_ = 0;
+    float roughness_ = 0;
     double size_ = 0, res_ = 0, x0_ = 0, y0_ = 0;
     int nx_ = 0, ny_ = 0;
     std::vector<float> h_, ground_, bmax_;

@@ -31,6 +31,9 @@ struct SimConfig {
     // one mold share size and shape and differ only in where they lie and how they are turned
     // (a lab's artificial rocks are casts; twins make local descriptors ambiguous).
     int rock_molds = 0;
+    // Rock surface roughness: amplitude [m] of fractal relief with wavelengths of ~8 cm and
+    // ~4 cm on every rock (rough cast or natural stone); 0 = smooth (the presets).
+    double rock_roughness_m = 0.0;
 
     // Camera: a stereo pair (baseline_m) on a pan-tilt unit at camera_height_m. Rays are
     // cast on a subsampled image; the noise uses the real camera's focal length.

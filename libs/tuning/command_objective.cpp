@@ -17,14 +17,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "run_directory.hpp"
+
 extern char** environ;
 
 namespace maptune::tuning {
 namespace {
-
-double now_s() {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 std::string trim(const std::string& s) {
     const auto b = s.find_first_not_of(" \t\r\n");

@@ -22,6 +22,10 @@ std::string fmt(double v, int decimals = 4) { return params::format_fixed(v, dec
 std::string num(double v) { return params::format_double(v); }
 }  // namespace
 
+double now_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
 std::string utc_now(const char* format) {
     const std::time_t t = std::time(nullptr);
     std::tm tm{};

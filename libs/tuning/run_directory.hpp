@@ -26,6 +26,9 @@ struct RunEnd {
     double wall_s = 0;
 };
 
+// Seconds on the monotonic clock: what run time limits, timeouts and wall_s are measured by.
+double now_s();
+
 // Wall-clock time in UTC, by strftime format (default ISO 8601: "2026-12-02T10:31:30Z").
 std::string utc_now(const char* format = "%Y-%m-%dT%H:%M:%SZ");
 

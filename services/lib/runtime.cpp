@@ -35,9 +35,7 @@ std::string utc_now(const char* format) { return tuning::utc_now(format); }
 bool stop_requested() { return g_stop.load(); }
 void request_stop() { g_stop.store(true); }
 
-double now_s() {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now_s() { return tuning::now_s(); }
 
 std::string incarnation_id() { return tuning::new_incarnation_id(); }
 

@@ -82,8 +82,12 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         options.scheduler.shard_size = 0;
         options.scheduler.lease_s = 30;
         options.scheduler.unserved_timeout_s = 1;
-        std::vector<std::string> log;  // written on sample_db's thread, read after it stopped
-        options.log = [&](const std::string& line) { log.push_back(line); };
+        std::vector<std::string> log;  // written on sample_db's thread while the test reads it
+        std::mutex log_m;
+        options.log = [&](const std::string& line) {
+            std::lock_guard<std::mutex> lock(log_m);
+            log.push_back(line);
+        };
         services::SampleDb db(db_p, mirror, options);
 
         dds::Participant worker_p({domain, "", "maptune_loopback", "worker"});
@@ -227,7 +231,12 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         EXPECT_EQ(stats.not_stored, 3u);
         // Both faults were said (every reply is out, so the loop has written its lines).
         int invalid = 0, not_stored = 0;
-        for (const auto& line : log) {
+        std::vector<std::string> lines;
+        {
+            std::lock_guard<std::mutex> lock(log_m);
+            lines = log;
+        }
+        for (const auto& line : lines) {
             invalid += line.find("failed: invalid result: ") != std::string::npos;
             not_stored += line.find("not stored: pairs timed out") != std::string::npos;
         }
