@@ -123,6 +123,23 @@ std::uint64_t content_hash(const std::string& body,
 
 std::atomic<int> g_tmp_counter{0};
 
+// --force replaces only what a previous generate/import wrote: never the current directory
+// or one that holds it, never a file, never a directory of something else.
+void check_replaceable(const fs::path& out) {
+    std::error_code ec;
+    const fs::path cwd = fs::current_path(ec).lexically_normal();
+    const auto rel = cwd.lexically_relative(out);
+    if (out == out.root_path() || (!ec && !rel.empty() && *rel.begin() != "..")) {
+        throw DatasetError(out, "refusing to replace it: it is or holds the current directory");
+    }
+    if (!fs::is_directory(out)) throw DatasetError(out, "refusing to replace it: not a directory");
+    if (fs::is_empty(out, ec)) return;
+    if (!fs::is_regular_file(out / "manifest.yaml")) {
+        throw DatasetError(out, "refusing to replace it: not a maptune dataset (no manifest.yaml); "
+                                "--force replaces only a previous dataset");
+    }
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------ writer
@@ -130,13 +147,15 @@ std::atomic<int> g_tmp_counter{0};
 DatasetWriter::DatasetWriter(fs::path out, std::string name, std::string source,
                              double voxel_size, double overlap_voxel, bool overwrite)
     : out_(std::move(out)), overwrite_(overwrite) {
+    std::error_code ec;
+    out_ = fs::absolute(out_, ec).lexically_normal();
     if (out_.has_filename() == false) out_ = out_.parent_path();
     if (fs::exists(out_) && !overwrite_) {
         throw DatasetError(out_, "output already exists (choose another --out or pass --force)");
     }
+    if (fs::exists(out_)) check_replaceable(out_);
     tmp_ = out_.string() + ".tmp-" + std::to_string(::getpid()) + "-" +
            std::to_string(g_tmp_counter++);
-    std::error_code ec;
     fs::remove_all(tmp_, ec);
     fs::create_directories(tmp_, ec);
     if (ec) throw DatasetError(tmp_, "cannot create directory: " + ec.message());
@@ -292,7 +311,10 @@ Dataset Dataset::open(const fs::path& dir) {
     m.voxel_size = get<double>(root, "voxel_size", mf, "");
     m.overlap_voxel = get<double>(root, "overlap_voxel", mf, "");
     if (root["meta"] && root["meta"].IsMap()) {
-        for (const auto& kv : root["meta"]) m.meta[kv.first.as<std::string>()] = kv.second.as<std::string>();
+        for (const auto& kv : root["meta"]) {
+            if (!kv.first.IsScalar() || !kv.second.IsScalar()) throw DatasetError(mf, "meta: expected name: text entries");
+            m.meta[kv.first.as<std::string>()] = kv.second.as<std::string>();
+        }
     }
     const YAML::Node runs = root["runs"];
     if (!runs || !runs.IsSequence() || runs.size() == 0) throw DatasetError(mf, "runs: missing or empty");

@@ -274,10 +274,35 @@ std::vector<ColoredPoint> read_pcd(const fs::path& file, const ReadOptions& opti
     if (ix < 0 || iy < 0 || iz < 0) throw DatasetError(file, "PCD lacks fields x y z");
     int irgb = find_field(fields, "rgb");
     if (irgb < 0) irgb = find_field(fields, "rgba");
+    // Sizes, types and counts index the data: a hostile header must fail here, not read out of
+    // bounds below.
     int record = 0;
     for (auto& f : fields) {
+        if (f.size != 1 && f.size != 2 && f.size != 4 && f.size != 8) {
+            throw DatasetError(file, "PCD field " + f.name + ": SIZE " + std::to_string(f.size) + " is not 1, 2, 4 or 8");
+        }
+        if (f.type != 'F' && f.type != 'I' && f.type != 'U') {
+            throw DatasetError(file, "PCD field " + f.name + ": TYPE " + std::string(1, f.type) + " is not F, I or U");
+        }
+        if (f.count < 1 || f.count > 100000) {
+            throw DatasetError(file, "PCD field " + f.name + ": COUNT " + std::to_string(f.count) + " is not in 1..100000");
+        }
         f.offset = record;
         record += f.size * f.count;
+    }
+    for (const int i : {ix, iy, iz}) {
+        if (fields[static_cast<std::size_t>(i)].type == 'F' && fields[static_cast<std::size_t>(i)].size < 4) {
+            throw DatasetError(file, "PCD field " + fields[static_cast<std::size_t>(i)].name + ": a float of SIZE " +
+                                         std::to_string(fields[static_cast<std::size_t>(i)].size));
+        }
+    }
+    if (irgb >= 0 && fields[static_cast<std::size_t>(irgb)].size != 4) {
+        throw DatasetError(file, "PCD field " + fields[static_cast<std::size_t>(irgb)].name + ": SIZE must be 4");
+    }
+    // A point takes at least two bytes of the file: more announced points cannot be there.
+    if (points > bytes.size()) {
+        throw DatasetError(file, "PCD header announces " + std::to_string(points) + " points in a file of " +
+                                     std::to_string(bytes.size()) + " bytes");
     }
     Collector c{file, options, {}, 0};
     c.out.reserve(points);
@@ -326,7 +351,12 @@ std::vector<ColoredPoint> read_pcd(const fs::path& file, const ReadOptions& opti
             auto num = [&](int fi) {
                 const std::string& s = tok[column(fi)];
                 if (s == "nan" || s == "NaN" || s == "-nan") return std::nan("");
-                return std::strtod(s.c_str(), nullptr);
+                char* end = nullptr;
+                const double v = std::strtod(s.c_str(), &end);
+                if (end == s.c_str() || *end != '\0') {
+                    throw DatasetError(file, "ascii data line " + std::to_string(n + 1) + ": '" + s + "' is not a number");
+                }
+                return v;
             };
             ColoredPoint col = grey;
             if (irgb >= 0) {
@@ -432,6 +462,22 @@ std::vector<ColoredPoint> read_ply(const fs::path& file, const ReadOptions& opti
         throw DatasetError(file, "unsupported PLY format '" + format +
                                      "' (ascii or binary_little_endian)");
     }
+    // Counts and types drive the reading loops: check them against the file before reading.
+    for (const auto& e : elements) {
+        if (e.count > bytes.size()) {
+            throw DatasetError(file, "PLY element '" + e.name + "' announces " + std::to_string(e.count) +
+                                         " entries in a file of " + std::to_string(bytes.size()) + " bytes");
+        }
+        if (format != "ascii" && e.props.empty() && e.count > 0) {
+            throw DatasetError(file, "PLY element '" + e.name + "' has entries but no properties");
+        }
+        for (const auto& p : e.props) {
+            if (ply_type_size(p.type) == 0 || (p.is_list && ply_type_size(p.count_type) == 0)) {
+                throw DatasetError(file, "PLY element '" + e.name + "' property '" + p.name + "': unknown type '" +
+                                             (p.is_list && ply_type_size(p.count_type) == 0 ? p.count_type : p.type) + "'");
+            }
+        }
+    }
     Collector c{file, options, {}, 0};
     ColoredPoint grey;
     grey.r = grey.g = grey.b = 128;
@@ -480,8 +526,11 @@ std::vector<ColoredPoint> read_ply(const fs::path& file, const ReadOptions& opti
                     if (p.is_list) {
                         const int cs = ply_type_size(p.count_type), vs = ply_type_size(p.type);
                         if (pos + cs > bytes.size()) throw DatasetError(file, "truncated binary PLY data");
-                        const auto n = static_cast<std::size_t>(ply_read_binary(bytes.data() + pos, p.count_type));
-                        pos += cs + n * vs;
+                        const double listed = ply_read_binary(bytes.data() + pos, p.count_type);
+                        if (!(listed >= 0) || listed * vs > static_cast<double>(bytes.size() - pos - cs)) {
+                            throw DatasetError(file, "truncated binary PLY data (a list of " + std::to_string(listed) + " entries)");
+                        }
+                        pos += cs + static_cast<std::size_t>(listed) * vs;
                         vals[k] = 0;
                     } else {
                         const int sz = ply_type_size(p.type);

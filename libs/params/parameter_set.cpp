@@ -61,7 +61,7 @@ ParameterSet parse_parameter_set(const std::string& yaml_text, const std::string
     // A ROS 2 parameter file: a single node whose mapping holds "ros__parameters".
     if (root.size() == 1) {
         const auto first = *root.begin();
-        if (first.second.IsMap() && first.second["ros__parameters"].IsDefined()) {
+        if (first.first.IsScalar() && first.second.IsMap() && first.second["ros__parameters"].IsDefined()) {
             where = where.child(first.first.as<std::string>()).child("ros__parameters");
             values = first.second["ros__parameters"];
         }

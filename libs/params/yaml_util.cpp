@@ -53,6 +53,8 @@ void check_unique_keys(const YAML::Node& map, const YamlPath& where) {
     require_map(map, where);
     std::set<std::string> seen;
     for (const auto& kv : map) {
+        // A mapping or list as key ({a: 1}: 2) is valid YAML but never a name here.
+        if (!kv.first.IsScalar()) where.fail(kv.first, "expected a plain name as key, not a mapping or list");
         const auto key = kv.first.as<std::string>();
         if (!seen.insert(key).second) where.child(key).fail(kv.first, "duplicate key");
     }

@@ -35,7 +35,7 @@ json scalar_json(const std::string& text) {
 json yaml_json(const YAML::Node& n) {
     if (n.IsMap()) {
         json out = json::object();
-        for (const auto& kv : n) out[kv.first.as<std::string>()] = yaml_json(kv.second);
+        for (const auto& kv : n) out[kv.first.IsScalar() ? kv.first.Scalar() : std::string("?")] = yaml_json(kv.second);
         return out;
     }
     if (n.IsSequence()) {

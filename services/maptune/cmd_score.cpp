@@ -13,7 +13,8 @@ namespace {
 // Reads a finite number at `key` of `obj`; `where` names the object in messages.
 double number_at(const nlohmann::json& obj, const std::string& key, const std::string& where) {
     const auto& v = obj.at(key);
-    if (!v.is_number()) throw std::invalid_argument(where + key + ": expected a number, got " + v.dump());
+    // The type, not the value: dumping a hostile, deeply nested value recursed off the stack.
+    if (!v.is_number()) throw std::invalid_argument(where + key + ": expected a number, got " + v.type_name());
     return v.get<double>();
 }
 

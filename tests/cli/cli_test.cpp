@@ -92,10 +92,14 @@ TEST_F(CliTest, ScoreRejectsBadInputWithExitCode2) {
              {R"({"matches": {}})", "'matches' must be an array"},
              {R"({"matchez": []})", "unknown key 'matchez'"},
              {R"([1, 2])", "expected a JSON object"},
+             // Issue 14: a deeply nested value segfaulted while its error message dumped it.
+             {R"({"matches": [{"e_t": )" + std::string(100000, '[') + std::string(100000, ']') +
+                  R"(, "e_r": 0, "d": 1}]})",
+              "matches[0].e_t: expected a number, got array"},
          }) {
         const CliRun r = maptune("score", c.input);
-        EXPECT_EQ(r.exit_code, 2) << c.input;
-        EXPECT_NE(r.err.find(c.fragment), std::string::npos) << c.input << " → " << r.err;
+        EXPECT_EQ(r.exit_code, 2) << c.input.substr(0, 200);
+        EXPECT_NE(r.err.find(c.fragment), std::string::npos) << c.input.substr(0, 200) << " → " << r.err;
         EXPECT_TRUE(r.out.empty());
     }
     const CliRun missing = maptune("score /nonexistent.json");

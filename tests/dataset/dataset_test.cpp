@@ -81,6 +81,40 @@ TEST(SimulatorTest, SameSeedGivesByteIdenticalDatasetWhateverTheThreads) {
     EXPECT_NE(generate_dataset(c, temp_root() / "det_c"), id_a);
 }
 
+// Issue 14: `--out . --force` emptied the current directory. --force replaces only a previous
+// dataset: never the current directory (or one holding it), a file, or a foreign directory.
+TEST(SimulatorTest, ForceReplacesOnlyAPreviousDataset) {
+    SimConfig c = sim_preset("lab-tiny");
+    c.runs = 1;
+    c.submaps = 2;
+    const fs::path root = temp_root() / "force";
+    fs::create_directories(root / "foreign");
+    put(root / "foreign" / "notes.txt", "keep");
+    put(root / "file", "keep");
+    const fs::path previous = root / "previous";
+    generate_dataset(c, previous);
+    c.seed = 5;
+    EXPECT_NO_THROW(generate_dataset(c, previous, true));  // a previous dataset: replaced
+    EXPECT_EQ(Dataset::open(previous).manifest().meta.count("sim"), 1u);
+    EXPECT_NE(error_of([&] { generate_dataset(c, root / "foreign", true); }).find("not a maptune dataset"),
+              std::string::npos);
+    EXPECT_TRUE(fs::exists(root / "foreign" / "notes.txt"));
+    EXPECT_NE(error_of([&] { generate_dataset(c, root / "file", true); }).find("not a directory"), std::string::npos);
+    EXPECT_EQ(read_file(root / "file"), "keep");
+    fs::create_directories(root / "empty");
+    EXPECT_NO_THROW(generate_dataset(c, root / "empty", true));
+    const fs::path cwd = fs::current_path();
+    fs::current_path(root / "foreign");
+    const std::string here = error_of([&] { generate_dataset(c, ".", true); });
+    const std::string parent = error_of([&] { generate_dataset(c, "..", true); });
+    fs::current_path(cwd);
+    EXPECT_NE(here.find("current directory"), std::string::npos) << here;
+    EXPECT_NE(parent.find("current directory"), std::string::npos) << parent;
+    EXPECT_TRUE(fs::exists(root / "foreign" / "notes.txt"));
+    for (const auto& e : fs::directory_iterator(root))
+        EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << "left behind: " << e.path();
+}
+
 TEST(SimulatorTest, UnknownPresetIsAnError) {
     EXPECT_NE(error_of([] { sim_preset("mars"); }).find("unknown preset 'mars'"), std::string::npos);
     SimConfig c = sim_preset("lab-tiny");

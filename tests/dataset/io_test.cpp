@@ -115,6 +115,53 @@ TEST_F(IoTest, PcdBadInput) {
     EXPECT_NE(error_of([&] { read_cloud(dir_ / "x.xyz"); }).find("unknown cloud format"), std::string::npos);
 }
 
+// Issue 14: hostile headers segfaulted (negative or huge COUNT/SIZE: offsets beyond the record)
+// or were read as zeros; each is now an error naming the file and what is wrong.
+TEST_F(IoTest, PcdHostileHeadersAreErrors) {
+    const std::string head = "VERSION .7\nFIELDS x y z\n";
+    const std::string tail = "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n" + std::string(24, '\0');
+    struct Case {
+        std::string header, fragment;
+    };
+    for (const Case& c : std::vector<Case>{
+             {"SIZE 4 4 -4\nTYPE F F F\nCOUNT 1 1 1\n", "SIZE -4 is not 1, 2, 4 or 8"},
+             {"SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 -3\n", "COUNT -3 is not in 1..100000"},
+             {"SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 0\n", "COUNT 0"},
+             {"SIZE 4 4 4\nTYPE F F F\nCOUNT 1 2000000000 1\n", "COUNT 2000000000"},
+             {"SIZE 4 4 1073741824\nTYPE F F F\nCOUNT 1 1 1\n", "SIZE 1073741824"},
+             {"SIZE 4 4 4\nTYPE F F Q\nCOUNT 1 1 1\n", "TYPE Q"},
+             {"SIZE 4 4 2\nTYPE F F F\nCOUNT 1 1 1\n", "a float of SIZE 2"},
+         }) {
+        put(dir_ / "h.pcd", head + c.header + tail);
+        const std::string e = error_of([&] { read_cloud(dir_ / "h.pcd"); });
+        EXPECT_NE(e.find("h.pcd: PCD field"), std::string::npos) << c.header << " → " << e;
+        EXPECT_NE(e.find(c.fragment), std::string::npos) << c.header << " → " << e;
+    }
+    put(dir_ / "p.pcd", head + "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nPOINTS -5\nDATA ascii\n1 2 3\n");
+    EXPECT_NE(error_of([&] { read_cloud(dir_ / "p.pcd"); }).find("points in a file of"), std::string::npos);
+    put(dir_ / "w.pcd", head + "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nPOINTS 1\nDATA ascii\n1 two 3\n");
+    EXPECT_NE(error_of([&] { read_cloud(dir_ / "w.pcd"); }).find("'two' is not a number"), std::string::npos);
+}
+
+// Issue 14: a binary element without properties but with a huge count looped for ever.
+TEST_F(IoTest, PlyHostileHeadersAreErrors) {
+    const std::string vertex = "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n";
+    std::string xyz;
+    for (float v : {1.f, 2.f, 3.f}) xyz.append(reinterpret_cast<const char*>(&v), 4);
+    put(dir_ / "e.ply", "ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\n" + vertex +
+                            "end_header\n" + xyz);
+    EXPECT_NE(error_of([&] { read_cloud(dir_ / "e.ply"); }).find("'junk' announces"), std::string::npos);
+    put(dir_ / "f.ply", "ply\nformat binary_little_endian 1.0\nelement junk 5\n" + vertex + "end_header\n" + xyz);
+    EXPECT_NE(error_of([&] { read_cloud(dir_ / "f.ply"); }).find("has entries but no properties"), std::string::npos);
+    put(dir_ / "g.ply", "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list uchar int32 idx\n" +
+                            vertex + "end_header\n\xff" + xyz);
+    const std::string g = error_of([&] { read_cloud(dir_ / "g.ply"); });
+    EXPECT_NE(g.find("truncated binary PLY data"), std::string::npos) << g;
+    put(dir_ / "t.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                            "property quaternion z\nend_header\n" + xyz);
+    EXPECT_NE(error_of([&] { read_cloud(dir_ / "t.ply"); }).find("unknown type 'quaternion'"), std::string::npos);
+}
+
 TEST_F(IoTest, PcdAsciiWithRgbAndExtraFields) {
     float rgb_f;
     const std::uint32_t rgb = (10u << 16) | (20u << 8) | 30u;

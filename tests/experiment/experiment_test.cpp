@@ -173,6 +173,8 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "matcher: {settings: {lrf_method: [a]}}\n", "matcher.settings.lrf_method: expected a value");
     expect_error(head + "matcher: {id: my_icp, settings: {seed: 3}}\n", "settings apply to the reference matcher");
     expect_error(head + "matcher: {id: 'a b'}\n", "matcher.id: expected a matcher id");
+    expect_error(head + "{a: 1}: 2\n", "expected a plain name as key");
+    expect_error(head + "fixed: {[r_N]: 0.2}\n", "expected a plain name as key");
     expect_error(head + "validate: [{dataset: a/x}, {dataset: b/x}]\n", "label 'x' used twice");
     expect_error(head + "validate: [{dataset: a, reference: lidar}]\n", "validate[0].reference: expected one of");
     expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: mars}}}]\n",

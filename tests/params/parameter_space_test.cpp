@@ -89,6 +89,8 @@ TEST(ParameterSpace, ErrorsNameFileLineKeyAndExpectation) {
     expect_space_error(
         "name: s\nparameters:\n  a: {type: float, low: 0, high: 1, default: 0.5, log_scale: true}\n",
         {"parameters.a.log_scale", "low > 0"});
+    expect_space_error("name: s\nparameters:\n  {x: 1}: {type: float, low: 0, high: 1, default: 0}\n",
+                       {"space.yaml:3", "expected a plain name as key"});
 }
 
 TEST(ParameterSpace, MissingFileIsAClearError) {
@@ -116,6 +118,10 @@ TEST(ParameterSet, BadValuesInAParameterFileAreNamed) {
     expect_error("n_C: 2.5\n", "n_C: expected an integer");
     expect_error("r_N: .nan\n", "r_N: expected a finite number");
     expect_error("r_N: abc\n", "expected a number, got 'abc'");
+    // Issue 14: a mapping as key ended every command with std::terminate.
+    expect_error("r_N: 0.2\n{a: 1}: 2\n", "set.yaml:2: <root>: expected a plain name as key");
+    expect_error("{a: 1}: {ros__parameters: {r_N: 0.2}}\n", "expected a plain name as key");
+    expect_error("r_N: 0.2\n[1, 2]: 3\n", "expected a plain name as key");
 }
 
 TEST(ParameterSet, MissingParametersTakeDefaultsAndRos2FilesLoad) {
