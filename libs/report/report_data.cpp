@@ -160,7 +160,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
         out["objective"] = {{"command", e.objective->command}, {"minimize", e.minimize}};
     } else try {
         if (db_path.empty()) throw std::runtime_error("no observation store next to the run (give --db)");
-        db = std::make_unique<store::ObservationStore>(db_path);
+        db = std::make_unique<store::ObservationStore>(db_path, store::ObservationStore::Mode::kReadOnly);
         ds = dataset::Dataset::open(dataset_dir);
         // The run's observations are stored under the dataset id it ran on.
         if (!run.dataset_id.empty() && ds->manifest().id != run.dataset_id) {

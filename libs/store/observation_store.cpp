@@ -251,11 +251,16 @@ struct ObservationStore::Impl {
     }
 };
 
-ObservationStore::ObservationStore(const std::string& path) : impl_(std::make_unique<Impl>()) {
+ObservationStore::ObservationStore(const std::string& path, Mode mode) : impl_(std::make_unique<Impl>()) {
     impl_->path = path;
     namespace fs = std::filesystem;
     std::error_code ec;
     const bool exists = fs::exists(path, ec);
+    const bool read_only = mode == Mode::kReadOnly;
+    if (read_only && !exists) throw StoreError(path + ": no such file");
+    if (read_only && fs::is_regular_file(path, ec) && fs::file_size(path, ec) == 0) {
+        throw StoreError(path + ": empty file, not an observation store");
+    }
     if (exists) {
         if (!fs::is_regular_file(path, ec)) throw StoreError(path + ": not a regular file");
         if (fs::file_size(path, ec) > 0) {
@@ -271,7 +276,7 @@ ObservationStore::ObservationStore(const std::string& path) : impl_(std::make_un
             }
         }
     }
-    const int flags = SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE) |
+    const int flags = (read_only ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE)) |
                       SQLITE_OPEN_FULLMUTEX;
     if (sqlite3_open_v2(path.c_str(), &impl_->db, flags, nullptr) != SQLITE_OK) {
         throw StoreError(path + ": cannot open: " + sqlite3_errmsg(impl_->db));
@@ -304,6 +309,10 @@ ObservationStore::ObservationStore(const std::string& path) : impl_(std::make_un
             throw StoreError(path + ": schema version " + std::to_string(version) +
                              " is newer than this maptune understands (" +
                              std::to_string(kSchemaVersion) + ")");
+        }
+        if (read_only) {
+            if (app_id != kApplicationId) throw StoreError(path + ": not a maptune observation store");
+            return;
         }
         impl_->exec("PRAGMA journal_mode=WAL");
         // FULL: a committed observation survives a crash of the process and of the machine.

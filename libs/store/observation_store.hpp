@@ -77,10 +77,13 @@ struct ObservationFilter {
 
 class ObservationStore {
 public:
-    // Opens or creates the store at `path`. Throws StoreError when the file is not an SQLite
-    // database, belongs to another application, is corrupt, or has a newer schema; such a
-    // file is never modified.
-    explicit ObservationStore(const std::string& path);
+    // kReadWrite opens or creates the store at `path`; kReadOnly opens an existing store and
+    // never writes to it (no schema, no journal mode: listing must not turn a file into a
+    // store). Throws StoreError when the file is not an SQLite database, belongs to another
+    // application, is corrupt, or has a newer schema (read-only: also when it is missing or
+    // no maptune store yet); such a file is never modified.
+    enum class Mode { kReadWrite, kReadOnly };
+    explicit ObservationStore(const std::string& path, Mode mode = Mode::kReadWrite);
     ~ObservationStore();
     ObservationStore(const ObservationStore&) = delete;
     ObservationStore& operator=(const ObservationStore&) = delete;

@@ -156,7 +156,7 @@ void add_trials_command(CLI::App& app, int& exit_code) {
         try {
             if (!opt->import_from.empty()) {
                 store::ObservationStore db(opt->db);
-                const store::ObservationStore other(opt->import_from);
+                const store::ObservationStore other(opt->import_from, store::ObservationStore::Mode::kReadOnly);
                 const auto st = db.import_from(other);
                 std::cout << "imported " << st.imported << " of " << st.read << " observations from "
                           << opt->import_from << " (" << st.already_present << " already present)\n";
@@ -176,7 +176,7 @@ void add_trials_command(CLI::App& app, int& exit_code) {
                 exit_code = missing ? 2 : 0;
                 return;
             }
-            const store::ObservationStore db(opt->db);
+            const store::ObservationStore db(opt->db, store::ObservationStore::Mode::kReadOnly);
             store::ObservationFilter filter;
             if (!opt->dataset.empty()) filter.dataset_id = opt->dataset;
             if (!opt->view.empty()) filter.view = opt->view;

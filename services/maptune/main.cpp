@@ -38,6 +38,12 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         const int code = app.exit(e);
         return code == 0 ? 0 : 2;
+    } catch (const std::exception& e) {
+        // Last line of defence: a filesystem or library error a command did not catch (a run
+        // directory under a file, a dataset path in a symlink loop) ends with its message,
+        // never with std::terminate.
+        std::cerr << "maptune: " << e.what() << "\n";
+        return 1;
     }
     return exit_code;
 }

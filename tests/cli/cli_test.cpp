@@ -190,6 +190,24 @@ TEST_F(CliTest, HelpAndUsageErrors) {
 // `maptune run --seeds` with a validate: section on a generated held-out view: one run
 // directory per seed with its run record and validation.csv, summary.csv over the seeds;
 // `maptune validate` on the same directory answers everything from the shared store.
+// Issue 14: filesystem errors outside a command's own checks ended `run` with std::terminate
+// (exit 134) and a listing turned an empty file into a store.
+TEST_F(CliTest, FilesystemErrorsAreMessagesAndListingNeverWrites) {
+    const std::string src = MAPTUNE_SOURCE_DIR;
+    std::ofstream(dir_ / "exp.yaml") << "name: fs\nspace: " << src << "/configs/spaces/lru_matcher.yaml\n"
+                                     << "dataset: {dir: d, generate: {preset: lab-tiny, runs: 1, submaps: 2, seed: 5}}\n";
+    std::ofstream(dir_ / "a_file") << "x";
+    const CliRun under_file = maptune("run --experiment " + (dir_ / "exp.yaml").string() + " --run-dir " +
+                                      (dir_ / "a_file" / "run").string() + " --no-progress");
+    EXPECT_EQ(under_file.exit_code, 1) << under_file.err;
+    EXPECT_NE(under_file.err.find("a_file/run"), std::string::npos) << under_file.err;
+    std::ofstream(dir_ / "empty.db").close();
+    const CliRun listing = maptune("trials --db " + (dir_ / "empty.db").string());
+    EXPECT_EQ(listing.exit_code, 2) << listing.err;
+    EXPECT_NE(listing.err.find("empty file"), std::string::npos) << listing.err;
+    EXPECT_EQ(fs::file_size(dir_ / "empty.db"), 0u);
+}
+
 TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
     const std::string src = MAPTUNE_SOURCE_DIR;
     std::ofstream(dir_ / "exp.yaml")

@@ -190,6 +190,31 @@ TEST_F(StoreTest, ForeignFileIsRefusedAndNeverOverwritten) {
     EXPECT_EQ(fs::file_size(path), before);
 }
 
+// Issue 14: listing an empty file turned it into a store. Read-only opening writes nothing:
+// no store is created, an empty or missing file is an error, a real store reads as usual.
+TEST_F(StoreTest, ReadOnlyOpeningNeverWrites) {
+    const std::string path = db_path();
+    EXPECT_THROW(ObservationStore(path, ObservationStore::Mode::kReadOnly), StoreError);
+    EXPECT_FALSE(fs::exists(path));
+    std::ofstream(path).close();
+    try {
+        ObservationStore store(path, ObservationStore::Mode::kReadOnly);
+        FAIL() << "opened an empty file";
+    } catch (const StoreError& e) {
+        EXPECT_NE(std::string(e.what()).find("empty file"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(fs::file_size(path), 0u);
+    fs::remove(path);
+    {
+        ObservationStore store(path);
+        store.put(make_observation(1));
+    }
+    const auto before = fs::last_write_time(path);
+    const ObservationStore reader(path, ObservationStore::Mode::kReadOnly);
+    EXPECT_EQ(reader.count(), 1u);
+    EXPECT_EQ(fs::last_write_time(path), before);
+}
+
 TEST_F(StoreTest, ForeignSqliteDatabaseIsRefused) {
     const std::string path = db_path();
     sqlite3* db = nullptr;
