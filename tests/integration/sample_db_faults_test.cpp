@@ -34,9 +34,12 @@ namespace v1 = msg::v1;
 const std::string kSource = MAPTUNE_SOURCE_DIR;
 using namespace std::chrono_literals;
 
-// The fake worker's heartbeat: one lru_matcher slot of version "test" for `space_hash`.
+// The fake worker's heartbeat: one lru_matcher slot of version "test" for `space_hash`, listing
+// the tasks it holds as the real worker does, so that a task sent before its reader matched
+// is sent again after a few seconds instead of waiting out the lease (a flaky test under load).
 template <class Writer>
-void heartbeat(Writer& status, const std::string& space_hash, std::uint64_t sequence) {
+void heartbeat(Writer& status, const std::string& space_hash, std::uint64_t sequence,
+               const std::deque<v1::EvaluationTask>& queue, std::mutex& m) {
     v1::WorkerStatus ws;
     ws.worker_id("w1");
     ws.matcher_id("lru_matcher");
@@ -44,8 +47,26 @@ void heartbeat(Writer& status, const std::string& space_hash, std::uint64_t sequ
     ws.space_hash(space_hash);
     ws.slots(1);
     ws.sequence_number(sequence);
+    ws.lists_tasks(true);
+    std::vector<std::string> held;
+    {
+        std::lock_guard<std::mutex> lock(m);
+        for (const auto& t : queue) held.push_back(t.task_id());
+    }
+    ws.tasks(held);
     status.write(ws);
 }
+
+// Stops and joins a test's worker thread however the test body ends (a failed ASSERT returns
+// early; a joinable std::thread would then abort the whole test binary).
+struct JoinOnExit {
+    std::atomic<bool>& stop;
+    std::thread& thread;
+    ~JoinOnExit() {
+        stop = true;
+        if (thread.joinable()) thread.join();
+    }
+};
 
 template <class Pred>
 bool poll(Pred pred, double timeout_s) {
@@ -116,7 +137,7 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
             double last_beat = -1;
             while (!stop) {
                 if (services::now_s() - last_beat > 0.2) {
-                    heartbeat(status, space.hash(), ++beat);
+                    heartbeat(status, space.hash(), ++beat, queue, m);
                     last_beat = services::now_s();
                 }
                 std::optional<v1::EvaluationTask> t;
@@ -155,6 +176,7 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
                 results.write(res);
             }
         });
+        const JoinOnExit join_worker{stop, worker};
 
         auto ask = [&](const std::string& id, double r_n, const std::string& matcher = "lru_matcher") {
             v1::ObservationRequest req;
@@ -346,7 +368,7 @@ TEST(SampleDbFaults, AHungDatasetTransferDoesNotStopOtherRequests) {
             std::uint64_t beat = 0;
             while (!stop) {
                 if (services::now_s() - last_beat > 0.2) {
-                    heartbeat(status, space.hash(), ++beat);
+                    heartbeat(status, space.hash(), ++beat, queue, m);
                     last_beat = services::now_s();
                 }
                 std::optional<v1::EvaluationTask> t;
@@ -371,6 +393,7 @@ TEST(SampleDbFaults, AHungDatasetTransferDoesNotStopOtherRequests) {
                 results.write(res);
             }
         });
+        const JoinOnExit join_worker{stop, worker};
         auto ask = [&](const std::string& id, const std::string& dataset_id) {
             v1::ObservationRequest req;
             req.request_id(id);
