@@ -99,10 +99,11 @@ std::vector<PairOverlap> read_pairs(const fs::path& file, int n) {
         if (line.empty() || line[0] == '#') continue;
         std::istringstream ls(line);
         PairOverlap p;
-        if (!(ls >> p.a >> p.b >> p.overlap) || p.a < 0 || p.b <= p.a || p.b >= n) {
+        if (!(ls >> p.a >> p.b >> p.overlap) || p.a < 0 || p.b <= p.a || p.b >= n || !(p.overlap >= 0) ||
+            p.overlap > 1) {
             throw DatasetError(file, "line " + std::to_string(line_no) +
                                          ": expected 'a b overlap' with 0 <= a < b < " +
-                                         std::to_string(n));
+                                         std::to_string(n) + " and overlap in [0, 1]");
         }
         out.push_back(p);
     }
@@ -310,6 +311,13 @@ Dataset Dataset::open(const fs::path& dir) {
     m.source = get<std::string>(root, "source", mf, "");
     m.voxel_size = get<double>(root, "voxel_size", mf, "");
     m.overlap_voxel = get<double>(root, "overlap_voxel", mf, "");
+    // Both are divisors (voxel keys): zero, negative or NaN would hang or divide by zero later.
+    if (!(m.voxel_size > 0) || !std::isfinite(m.voxel_size)) {
+        throw DatasetError(mf, "voxel_size: " + std::to_string(m.voxel_size) + " is not a positive number");
+    }
+    if (!(m.overlap_voxel > 0) || !std::isfinite(m.overlap_voxel)) {
+        throw DatasetError(mf, "overlap_voxel: " + std::to_string(m.overlap_voxel) + " is not a positive number");
+    }
     if (root["meta"] && root["meta"].IsMap()) {
         for (const auto& kv : root["meta"]) {
             if (!kv.first.IsScalar() || !kv.second.IsScalar()) throw DatasetError(mf, "meta: expected name: text entries");

@@ -205,15 +205,23 @@ int find_field(const std::vector<Field>& fields, const std::string& name) {
     return -1;
 }
 
+// Coordinates beyond this are no submap of a robot's (±3e38 aborted inside PCL/FLANN's
+// neighbour searches): the reader refuses them like NaN.
+constexpr double kMaxCoordinate = 1e6;  // metres
+
 // Collects points, checking finiteness; returns the count of dropped points.
 struct Collector {
     const fs::path& file;
     const ReadOptions& options;
     std::vector<ColoredPoint> out;
-    std::size_t nan_count = 0;
+    std::size_t nan_count = 0, far_count = 0;
     void add(double x, double y, double z, const ColoredPoint& colour) {
         if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
             ++nan_count;
+            return;
+        }
+        if (std::fabs(x) > kMaxCoordinate || std::fabs(y) > kMaxCoordinate || std::fabs(z) > kMaxCoordinate) {
+            ++far_count;
             return;
         }
         ColoredPoint p = colour;
@@ -227,6 +235,10 @@ struct Collector {
             throw DatasetError(file, std::to_string(nan_count) +
                                          " points with NaN/Inf coordinates (use --drop-nan to "
                                          "drop them)");
+        }
+        if (far_count > 0) {
+            throw DatasetError(file, std::to_string(far_count) + " points with a coordinate beyond ±" +
+                                         std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
         }
         if (out.empty()) throw DatasetError(file, "empty cloud: no valid points");
         return std::move(out);

@@ -1,6 +1,7 @@
 #include "experiment/run_files.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -70,24 +71,31 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
             throw params::ConfigError(file.string() + ":" + std::to_string(line_no) + ": expected " +
                                       std::to_string(header.size()) + " columns");
         }
+        // Whole cells only, and finite: a NaN p resumed into the best-so-far printed garbage.
+        auto number = [](const std::string& cell) {
+            std::size_t used = 0;
+            const double v = std::stod(cell, &used);
+            if (used != cell.size() || !std::isfinite(v)) throw std::invalid_argument(cell);
+            return v;
+        };
         try {
             EvaluationRecord r;
             r.number = std::stoi(c[0]);
-            r.p = std::stod(c[1]);
+            r.p = number(c[1]);
             r.m = std::stoul(c[2]);
-            r.v = std::stod(c[3]);
-            r.eps = std::stod(c[4]);
+            r.v = number(c[3]);
+            r.eps = number(c[4]);
             r.failed = c[5] == "1";
             r.from_store = c[6] == "1";
-            r.wall_s = std::stod(c[7]);
+            r.wall_s = number(c[7]);
             r.origin = c[8];
             for (std::size_t i = 0; i < space.size(); ++i) {
-                r.params.set(space.specs()[i].name, std::stod(c[first_param + i]));
+                r.params.set(space.specs()[i].name, number(c[first_param + i]));
             }
             r.error = c.back();
             out.push_back(std::move(r));
         } catch (const std::exception&) {
-            throw params::ConfigError(file.string() + ":" + std::to_string(line_no) + ": not a number");
+            throw params::ConfigError(file.string() + ":" + std::to_string(line_no) + ": not a finite number");
         }
     }
     return out;

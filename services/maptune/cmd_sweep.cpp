@@ -39,7 +39,11 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
             if (!opt->db.empty()) db = std::make_unique<store::ObservationStore>(opt->db);
             evaluation::Evaluator evaluator(ds, space, matcher_settings(*opt));
             std::ofstream file;
-            if (*out != "-") file.open(*out);
+            if (*out != "-") {
+                // Before any evaluation: a sweep costs minutes, its output must have somewhere to go.
+                file.open(*out);
+                if (!file) throw std::runtime_error(*out + ": cannot write");
+            }
             std::ostream& csv = *out == "-" ? std::cout : file;
             csv << "param,value,m,failed,timeouts,e_t_median,e_t_p90,e_r_median_deg,v,eps,p,seconds,from_store\n";
             std::vector<double> values;
@@ -63,6 +67,7 @@ void add_sweep_command(CLI::App& app, int& exit_code) {
                     << params::format_fixed(r.score.p, 4) << "," << params::format_fixed(obs.wall_seconds, 2)
                     << "," << (from_store ? 1 : 0) << std::endl;
             }
+            if (!csv) throw std::runtime_error(*out + ": write failed");
         } catch (const std::exception& e) {
             std::cerr << "maptune sweep: " << e.what() << "\n";
             exit_code = 2;

@@ -206,6 +206,14 @@ TEST_F(CliTest, FilesystemErrorsAreMessagesAndListingNeverWrites) {
     EXPECT_EQ(listing.exit_code, 2) << listing.err;
     EXPECT_NE(listing.err.find("empty file"), std::string::npos) << listing.err;
     EXPECT_EQ(fs::file_size(dir_ / "empty.db"), 0u);
+#ifdef MAPTUNE_CLI_HAS_EVALUATION
+    // A sweep whose output cannot be written fails before it evaluates anything (it exited 0).
+    const CliRun gen = maptune("dataset generate --preset lab-tiny --runs 1 --submaps 2 --out " + (dir_ / "sweep_d").string());
+    ASSERT_EQ(gen.exit_code, 0) << gen.err;
+    const CliRun sweep = maptune("sweep --dataset " + (dir_ / "sweep_d").string() + " --param t_K --steps 2 -o /nonexistent/x.csv");
+    EXPECT_EQ(sweep.exit_code, 2) << sweep.out << sweep.err;
+    EXPECT_NE(sweep.err.find("/nonexistent/x.csv: cannot write"), std::string::npos) << sweep.err;
+#endif
 }
 
 TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {

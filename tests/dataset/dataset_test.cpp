@@ -357,6 +357,31 @@ TEST(DatasetTest, BadDatasetFilesAreNamed) {
     EXPECT_NE(error_of([&] { d.load_submap(0, 2); }).find("submap002.bt"), std::string::npos);
     fs::remove(dir / "run00/submap003_obstacles.pcd");
     EXPECT_NE(error_of([&] { d.load_submap(0, 3); }).find("submap003_obstacles.pcd: cannot open"), std::string::npos);
+    // Issue 14: values that were accepted silently.
+    const std::string manifest = read_file(dir / "manifest.yaml");
+    auto with = [&](const std::string& from, const std::string& to) {
+        std::string m = manifest;
+        const auto at = m.find(from);
+        EXPECT_NE(at, std::string::npos) << from;
+        if (at != std::string::npos) m.replace(at, from.size(), to);
+        put(dir / "manifest.yaml", m);
+    };
+    const std::string voxel = manifest.substr(manifest.find("voxel_size:"), manifest.find('\n', manifest.find("voxel_size:")) -
+                                                                               manifest.find("voxel_size:"));
+    with(voxel, "voxel_size: -0.04");
+    EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("voxel_size: -0.04"), std::string::npos);
+    with(voxel, "voxel_size: .nan");
+    EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("is not a positive number"), std::string::npos);
+    put(dir / "manifest.yaml", manifest);
+    const std::string pairs_file = Dataset::open(dir).manifest().runs.at(0).pairs_file;
+    const std::string pairs = read_file(dir / pairs_file);
+    put(dir / pairs_file, pairs + "0 3 1.5\n");
+    EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("overlap in [0, 1]"), std::string::npos);
+    put(dir / pairs_file, pairs);
+    // A cloud with a coordinate of 3e38 (finite, but no robot's): refused like NaN.
+    put(dir / "run00/submap001.pcd", "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\n"
+                                    "HEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n3e38 0 0\n");
+    EXPECT_NE(error_of([&] { d.load_submap(0, 1); }).find("1 points with a coordinate beyond"), std::string::npos);
     fs::remove(dir / "manifest.yaml");
     EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("missing manifest"), std::string::npos);
 }

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <set>
 
+#include "params/yaml_util.hpp"
 #include "temp_dataset.hpp"
 #include "tuning/run_directory.hpp"
 #include "tuning/tuning_run.hpp"
@@ -177,6 +178,21 @@ TEST_F(TuningRunTest, ResumeRestoresNumberingAndBestWithoutReaskingStartPoints) 
     files.write_results(first.summary());
     const auto trials = experiment::read_trials_csv(files.trials_file(), e.space);
     ASSERT_EQ(trials.size(), 2u);
+    {  // Issue 14: a NaN p in an edited trials.csv was resumed as the best so far.
+        const fs::path edited = dir_ / "edited.csv";
+        std::ifstream in(files.trials_file());
+        std::string header, row;
+        std::getline(in, header);
+        std::getline(in, row);
+        std::ofstream(edited) << header << "\n" << row.substr(0, row.find(',') + 1) << "nan"
+                              << row.substr(row.find(',', row.find(',') + 1)) << "\n";
+        try {
+            experiment::read_trials_csv(edited, e.space);
+            ADD_FAILURE() << "read a NaN p";
+        } catch (const params::ConfigError& err) {
+            EXPECT_NE(std::string(err.what()).find("edited.csv:2: not a finite number"), std::string::npos) << err.what();
+        }
+    }
 
     auto second = make(e, "b");
     second.resume(trials);
