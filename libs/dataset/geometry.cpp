@@ -214,6 +214,36 @@ std::string octree_to_bt(const octomap::OcTree& tree) {
     return s.str();
 }
 
+namespace {
+
+// OctoMap reads its binary data recursively, one stack frame per level: a crafted chain of
+// inner nodes deeper than the tree's 16 levels overflowed the stack. Walks the same layout
+// iteratively first (per node two bytes, two bits per child, 11 = inner child whose subtree
+// follows in child order) and refuses what the reader must not see.
+void check_bt_data(const std::string& bytes, std::size_t pos, const std::string& file) {
+    constexpr std::size_t kLeafDepth = 16;  // octomap::OcTree's tree_depth
+    std::vector<int> pending;  // per open level: inner children still to read
+    for (;;) {
+        const std::size_t depth = pending.size();
+        if (pos + 2 > bytes.size()) throw DatasetError(file, "truncated OctoMap data");
+        int inner = 0;
+        for (int b = 0; b < 2; ++b) {
+            const auto bits = static_cast<unsigned char>(bytes[pos + static_cast<std::size_t>(b)]);
+            for (int i = 0; i < 4; ++i) inner += ((bits >> (2 * i)) & 3u) == 3u;
+        }
+        pos += 2;
+        if (inner > 0 && depth + 1 >= kLeafDepth) {
+            throw DatasetError(file, "OctoMap data deeper than " + std::to_string(kLeafDepth) + " levels");
+        }
+        pending.push_back(inner);
+        while (!pending.empty() && pending.back() == 0) pending.pop_back();
+        if (pending.empty()) return;
+        --pending.back();
+    }
+}
+
+}  // namespace
+
 std::shared_ptr<octomap::OcTree> octree_from_bt(const std::string& bytes, const std::string& file) {
     std::istringstream in(bytes);
     std::string line;
@@ -240,6 +270,9 @@ std::shared_ptr<octomap::OcTree> octree_from_bt(const std::string& bytes, const 
     if (!(res > 0)) throw DatasetError(file, "OctoMap resolution missing or not positive");
     auto tree = std::make_shared<octomap::OcTree>(res);
     if (size > 0) {
+        const auto at = in.tellg();
+        if (at < 0) throw DatasetError(file, "truncated OctoMap data");
+        check_bt_data(bytes, static_cast<std::size_t>(at), file);
         tree->octomap::OccupancyOcTreeBase<octomap::OcTreeNode>::readBinaryData(in);
         if (!in || tree->size() != size) {
             throw DatasetError(file, "truncated OctoMap data: header announces " + std::to_string(size) +

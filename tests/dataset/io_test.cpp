@@ -1,5 +1,6 @@
 // File formats: TUM, PCD, PLY readers and writers, and their error messages.
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 
 #include <cmath>
 #include <fstream>
@@ -202,6 +203,23 @@ TEST_F(IoTest, PlyAsciiAndBinary) {
     put(dir_ / "u.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                         "property float z\nend_header\n1 2 3\n");
     EXPECT_NE(error_of([&] { read_cloud(dir_ / "u.ply"); }).find("u.ply: truncated"), std::string::npos);
+}
+
+// Issue 14: a crafted chain of single-child inner nodes overflowed the stack inside OctoMap's
+// recursive reader; a real tree still round-trips.
+TEST(GeometryTest, OctreeReaderRefusesTreesDeeperThanOctoMapAllows) {
+    octomap::OcTree tree(0.05);
+    for (int i = 0; i < 50; ++i) tree.updateNode(octomap::point3d(0.1f * i, 0.02f * i, 0.3f), i % 3 != 0);
+    const auto back = octree_from_bt(octree_to_bt(tree), "ok.bt");
+    EXPECT_EQ(back->size(), tree.size());
+    const std::string header = "# Octomap OcTree binary file\nid OcTree\nsize 100001\nres 0.05\ndata\n";
+    std::string chain;
+    for (int i = 0; i < 100000; ++i) chain += std::string("\x03\x00", 2);  // first child: inner
+    chain += std::string("\x01\x00", 2);  // ... down to one occupied leaf
+    const std::string e = error_of([&] { octree_from_bt(header + chain, "deep.bt"); });
+    EXPECT_NE(e.find("deep.bt: OctoMap data deeper than 16 levels"), std::string::npos) << e;
+    const std::string cut = error_of([&] { octree_from_bt(header + std::string("\x03\x00\x03", 3), "cut.bt"); });
+    EXPECT_NE(cut.find("cut.bt: truncated OctoMap data"), std::string::npos) << cut;
 }
 
 TEST(GeometryTest, VoxelFilterAveragesAndIsOrderIndependent) {
