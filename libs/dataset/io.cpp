@@ -36,7 +36,14 @@ void write_file(const fs::path& file, const std::string& bytes) {
             throw DatasetError(file, "write failed (disk full?)");
         }
     }
-    fs::rename(tmp, file);
+    std::error_code ec;
+    fs::rename(tmp, file, ec);
+    if (ec) {
+        // The target is a directory, or not ours to replace: no temporary left behind.
+        std::error_code ignore;
+        fs::remove(tmp, ignore);
+        throw DatasetError(file, "cannot write: " + ec.message());
+    }
 }
 
 std::uint64_t fnv1a(const std::string& bytes, std::uint64_t h) {

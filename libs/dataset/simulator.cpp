@@ -960,15 +960,16 @@ std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overw
             try {
                 RunWriter rw = writer.run(r);
                 simulate_run(c, world, r, rw);
+                std::lock_guard<std::mutex> lock(progress_mutex);
+                ++done;
+                // May throw to cancel (SIGINT): the writer then removes its temporary directory.
+                if (progress) progress({done.load(), c.runs});
             } catch (...) {
                 std::lock_guard<std::mutex> lock(progress_mutex);
                 if (!error) error = std::current_exception();
                 next = c.runs;
                 return;
             }
-            std::lock_guard<std::mutex> lock(progress_mutex);
-            ++done;
-            if (progress) progress({done.load(), c.runs});
         }
     };
     int n_threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

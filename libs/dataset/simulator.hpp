@@ -91,7 +91,8 @@ std::vector<std::string> sim_preset_names();
 struct GenerateProgress {
     int runs_done = 0, runs_total = 0;
 };
-// Writes the dataset to `out` (atomically: temp dir, then rename); returns its id.
+// Writes the dataset to `out` (atomically: temp dir, then rename); returns its id. `progress`
+// is called after each run and may throw to cancel: nothing is left behind.
 std::string generate_dataset(const SimConfig& config, const std::filesystem::path& out,
                              bool overwrite = false,
                              const std::function<void(const GenerateProgress&)>& progress = {});

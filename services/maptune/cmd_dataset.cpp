@@ -3,7 +3,9 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <iostream>
 
@@ -120,7 +122,13 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
             c.seed = g->seed;
             c.threads = g->threads;
             const auto t0 = std::chrono::steady_clock::now();
+            // SIGINT/SIGTERM end the generation after the runs in progress, and the half-written
+            // temporary directory is removed (the default action left <out>.tmp-PID-N behind).
+            static std::atomic<bool> interrupted{false};
+            std::signal(SIGINT, [](int) { interrupted = true; });
+            std::signal(SIGTERM, [](int) { interrupted = true; });
             const std::string id = ds::generate_dataset(c, g->out, g->force, [](const ds::GenerateProgress& p) {
+                if (interrupted) throw std::runtime_error("interrupted: nothing written");
                 std::cerr << "\rruns " << p.runs_done << "/" << p.runs_total << std::flush;
             });
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -242,8 +250,9 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
             if (im->curv_radius > 0) o.curvature_radius_m = im->curv_radius;
             o.drop_nan = im->drop_nan;
             o.overwrite = im->force;
-            if (!im->write_tum.empty()) ds::write_file(im->write_tum, ds::format_tum(input.poses));
             const std::string id = ds::import_dataset(input, o, im->out);
+            // Only after the import succeeded: a failed import leaves no half of its outputs.
+            if (!im->write_tum.empty()) ds::write_file(im->write_tum, ds::format_tum(input.poses));
             std::cout << "wrote " << im->out << " (" << input.clouds.size() << " submaps) id " << id << "\n";
             return 0;
         });

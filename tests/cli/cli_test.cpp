@@ -216,6 +216,24 @@ TEST_F(CliTest, FilesystemErrorsAreMessagesAndListingNeverWrites) {
 #endif
 }
 
+#ifdef MAPTUNE_CLI_HAS_EVALUATION
+// Issue 14: an interrupted generate left its temporary <out>.tmp-PID-N directory behind.
+TEST_F(CliTest, InterruptedGenerateLeavesNothingBehind) {
+    const fs::path out = dir_ / "gen";
+    // Started in the background, interrupted once its temporary directory exists (polled, 5 s at most).
+    const std::string script = std::string(MAPTUNE_CLI) + " dataset generate --preset lab --runs 6 --submaps 10 --seed 3 " +
+                               "--threads 1 --out " + out.string() + " >/dev/null 2>" + (dir_ / "gen.err").string() +
+                               " & pid=$!; for i in $(seq 1 100); do ls -d " + out.string() +
+                               ".tmp-* >/dev/null 2>&1 && break; sleep 0.05; done; kill -INT $pid; wait $pid";
+    const int status = std::system(("bash -c '" + script + "'").c_str());
+    EXPECT_NE(WEXITSTATUS(status), 0);
+    EXPECT_NE(slurp(dir_ / "gen.err").find("interrupted: nothing written"), std::string::npos) << slurp(dir_ / "gen.err");
+    for (const auto& e : fs::directory_iterator(dir_))
+        EXPECT_EQ(e.path().filename().string().rfind("gen", 0) == 0 && e.path().filename() != "gen.err", false)
+            << "left behind: " << e.path();
+}
+#endif
+
 TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
     const std::string src = MAPTUNE_SOURCE_DIR;
     std::ofstream(dir_ / "exp.yaml")

@@ -163,6 +163,15 @@ TEST_F(IoTest, PlyHostileHeadersAreErrors) {
     EXPECT_NE(error_of([&] { read_cloud(dir_ / "t.ply"); }).find("unknown type 'quaternion'"), std::string::npos);
 }
 
+// Issue 14: writing onto a directory left its temporary `.part-*` file behind.
+TEST_F(IoTest, AFailedWriteLeavesNoTemporaryFile) {
+    fs::create_directories(dir_ / "target");
+    const std::string e = error_of([&] { write_file(dir_ / "target", "bytes"); });
+    EXPECT_NE(e.find("target: cannot write"), std::string::npos) << e;
+    for (const auto& entry : fs::directory_iterator(dir_))
+        EXPECT_EQ(entry.path().filename().string().find(".part"), std::string::npos) << entry.path();
+}
+
 TEST_F(IoTest, PcdAsciiWithRgbAndExtraFields) {
     float rgb_f;
     const std::uint32_t rgb = (10u << 16) | (20u << 8) | 30u;
