@@ -1,9 +1,31 @@
 #ifdef MAPTUNE_HAVE_EVALUATION
 #include "evaluation_cli.hpp"
 
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
 #include "params/yaml_util.hpp"
 
 namespace maptune::cli {
+
+namespace {
+
+// CLI::Range lets NaN through (every comparison with it is false): a finite number in [lo, hi].
+CLI::Validator finite_range(double lo, double hi) {
+    return CLI::Validator(
+        [lo, hi](std::string& text) -> std::string {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi) {
+                return "'" + text + "' is not a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+            }
+            return "";
+        },
+        "FINITE");
+}
+
+}  // namespace
 
 void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o) {
     cmd.add_option("--dataset", o.dataset, "dataset directory")->required()->check(CLI::ExistingDirectory);
@@ -21,8 +43,13 @@ void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o) {
 
 void add_matcher_options(CLI::App& cmd, EvaluationCliOptions& o) {
     cmd.add_option("--threads", o.threads, "matcher threads, 0 = all cores")->capture_default_str();
-    cmd.add_option("--pair-time-limit", o.pair_time_limit_s, "seconds per pair before TIMEOUT")->capture_default_str();
-    cmd.add_option("--time-limit", o.total_time_limit_s, "seconds per evaluation before TIMEOUT")->capture_default_str();
+    // Bounded like the settings table's time limits: 0, negative or NaN made every pair TIMEOUT.
+    cmd.add_option("--pair-time-limit", o.pair_time_limit_s, "seconds per pair before TIMEOUT, 0.001..1e7")
+        ->capture_default_str()
+        ->check(finite_range(0.001, 1e7));
+    cmd.add_option("--time-limit", o.total_time_limit_s, "seconds per evaluation before TIMEOUT, 0.001..1e7")
+        ->capture_default_str()
+        ->check(finite_range(0.001, 1e7));
     cmd.add_option("--matcher", o.matcher_overrides,
                    "non-optimized matcher setting KEY=VALUE (repeatable; e.g. min_ransac_inliers=8, "
                    "docs/matcher.md); part of the observation key");

@@ -184,6 +184,14 @@ TEST_F(CliTest, HelpAndUsageErrors) {
     EXPECT_NE(help.out.find("score"), std::string::npos);
     const CliRun bad = maptune("trials --format xml --db x.db");
     EXPECT_EQ(bad.exit_code, 2);
+#ifdef MAPTUNE_CLI_HAS_EVALUATION
+    // Issue 14: time limits of 0, negative or NaN were accepted (every pair then timed out).
+    for (const char* limit : {"--pair-time-limit 0", "--time-limit -5", "--pair-time-limit nan"}) {
+        const CliRun r = maptune(std::string("evaluate --dataset /tmp ") + limit);
+        EXPECT_EQ(r.exit_code, 2) << limit;
+        EXPECT_NE(r.err.find("time-limit"), std::string::npos) << limit << " → " << r.err;
+    }
+#endif
 }
 
 #ifdef MAPTUNE_CLI_HAS_EVALUATION
