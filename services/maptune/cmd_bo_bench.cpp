@@ -14,6 +14,7 @@
 #include "bo/benchmark.hpp"
 #include "commands.hpp"
 #include "table.hpp"
+#include "params/cli_range.hpp"
 
 namespace maptune::cli {
 namespace {
@@ -274,7 +275,7 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
         ->check(CLI::Range(1, 2000));
     cmd->add_option("--kappa", opt->kappa,
                     "UCB weight for --acquisitions ucb, 0..100 (default: 5, the thesis)")
-        ->check(CLI::Range(0.0, 100.0));
+        ->check(maptune::params::finite_range(0.0, 100.0));
     cmd->add_option("--candidates", opt->candidates,
                     "quasi-random acquisition candidates per proposal, 10..100000 (default: 2000)")
         ->check(CLI::Range(10, 100000));
@@ -282,7 +283,7 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
            "--refit-growth", opt->refit_growth,
            "refit GP hyperparameters when the observations grew by this fraction, 0..1; 0 = "
            "every tell (default: 0.05)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(maptune::params::finite_range(0.0, 1.0));
     cmd->add_option("--fit-random-starts", opt->fit_random_starts,
                     "random L-BFGS-B starts of each hyperparameter fit, 0..20 (default: 2)")
         ->check(CLI::Range(0, 20));

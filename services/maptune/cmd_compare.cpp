@@ -13,6 +13,7 @@
 #include "params/yaml_util.hpp"
 #include "compare_output.hpp"
 #include "table.hpp"
+#include "params/cli_range.hpp"
 
 namespace maptune::cli {
 namespace {
@@ -50,12 +51,12 @@ void add_compare_command(CLI::App& app, int& exit_code) {
                     "rank against, and the reference's m* per pair");
     cmd->add_option("--m-star", opt->m_star,
                     "m* per view, in the order of --on (one value: for every view), 1e-9..1e9")
-        ->check(CLI::Range(1e-9, 1e9));
+        ->check(maptune::params::finite_range(1e-9, 1e9));
     cmd->add_option("--m-star-per-pair", opt->m_star_per_pair,
                     "m* = F x pairs of the view (thesis lab: 200/1365 = 0.1465), 1e-9..1e9")
-        ->check(CLI::Range(1e-9, 1e9));
+        ->check(maptune::params::finite_range(1e-9, 1e9));
     cmd->add_option("--e-star", opt->e_star, "e* [m], > 0.05")->capture_default_str();
-    cmd->add_option("--w-v", opt->w_v, "weight of v in p, 0..1")->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--w-v", opt->w_v, "weight of v in p, 0..1")->check(maptune::params::finite_range(0.0, 1.0));
     cmd->add_option("--space", opt->space, "design space YAML")->capture_default_str();
     cmd->add_option("--db", opt->db, "observation store; repeated comparisons are answered from it")
         ->capture_default_str();

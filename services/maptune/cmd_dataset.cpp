@@ -14,6 +14,7 @@
 #include "dataset/importer.hpp"
 #include "dataset/render.hpp"
 #include "dataset/simulator.hpp"
+#include "params/cli_range.hpp"
 
 namespace maptune::cli {
 namespace fs = std::filesystem;
@@ -93,7 +94,7 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
     gen->add_option("--obstacle-max-height", g->obstacle_max_height,
                     "obstacle points only up to this height above the ground [m], 0..10 (0 = no limit); "
                     "default 0.6")
-        ->check(CLI::Range(0.0, 10.0));
+        ->check(maptune::params::finite_range(0.0, 10.0));
     gen->add_option("--sim", g->sim,
                     "simulator setting KEY=VALUE over the preset (repeatable), e.g. world_size=12, "
                     "max_range_m=5, pan_sweep_deg=-45,0,45; docs/datasets.md lists them");
@@ -152,7 +153,7 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
     info->add_flag("--verify", in->verify, "recompute the content hash from the files");
     info->add_option("--overlap-threshold", in->threshold,
                      "a pair overlaps when its gt overlap ratio exceeds this, 0..1; default 0.1")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(maptune::params::finite_range(0.0, 1.0));
     info->callback([in, &exit_code]() {
         guarded(exit_code, [&]() {
             const auto d = ds::Dataset::open(in->dir);
@@ -208,16 +209,16 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
     imp->add_option("--write-tum", im->write_tum, "also write the poses used (e.g. converted bun.conf) as TUM here");
     imp->add_option("--name", im->name, "dataset name; default 'import' (bunny: stanford-bunny)");
     imp->add_option("--voxel", im->voxel, "cloud voxel size [m], 0.0001..10; default 0.05 (bunny 0.002)")
-        ->check(CLI::Range(0.0001, 10.0));
+        ->check(maptune::params::finite_range(0.0001, 10.0));
     imp->add_option("--octomap-resolution", im->octomap_res, "[m], 0.001..10; default 0.1 (bunny 0.004)")
-        ->check(CLI::Range(0.001, 10.0));
+        ->check(maptune::params::finite_range(0.001, 10.0));
     imp->add_option("--max-range", im->max_range, "OctoMap ray length limit [m], <=0 unlimited; default unlimited");
     imp->add_option("--sensor-origin", im->origin, "sensor origin x y z in each cloud's frame [m]; default 0 0 0 (bunny 0 0 0.25)")
         ->expected(3);
     imp->add_option("--obstacle-method", im->method, "curvature | height (gravity-aligned ground data); default curvature")
         ->check(CLI::IsMember({"curvature", "height"}));
     imp->add_option("--curvature-radius", im->curv_radius, "[m], 0.0001..10; default 0.15 (bunny 0.006)")
-        ->check(CLI::Range(0.0001, 10.0));
+        ->check(maptune::params::finite_range(0.0001, 10.0));
     imp->add_flag("--drop-nan", im->drop_nan, "drop NaN/Inf points instead of rejecting the cloud");
     imp->add_option("--out", im->out, "output dataset directory (must not exist unless --force)")->required();
     imp->add_flag("--force", im->force, "replace an existing output directory");

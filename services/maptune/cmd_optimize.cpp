@@ -11,6 +11,7 @@
 #include "params/yaml_util.hpp"
 #include "tuning/black_box.hpp"
 #include "tuning/run_directory.hpp"
+#include "params/cli_range.hpp"
 
 namespace maptune::cli {
 namespace {
@@ -84,8 +85,8 @@ void add_optimize_command(CLI::App& app, int& exit_code) {
     cmd->add_flag("--minimize", o->spec.minimize, "minimize the value (default: maximize)");
     cmd->add_option("--parallel", o->spec.parallel, "commands at once, 1..256")->check(CLI::Range(1, 256));
     cmd->add_option("--timeout", o->spec.timeout_s, "seconds per command before it is stopped and failed (0: none)")
-        ->check(CLI::Range(0.0, 1e7));
-    cmd->add_option("--time-budget", o->spec.seconds, "seconds for the whole run (0: none)")->check(CLI::Range(0.0, 1e9));
+        ->check(maptune::params::finite_range(0.0, 1e7));
+    cmd->add_option("--time-budget", o->spec.seconds, "seconds for the whole run (0: none)")->check(maptune::params::finite_range(0.0, 1e9));
     cmd->add_option("--optimize", o->spec.optimize, "parameters to optimize (default: all; the others keep their default)")
         ->delimiter(',');
     cmd->add_option("--acquisition", o->spec.acquisition, "log_ei | ei | ucb | ucb_schedule")

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "params/cli_range.hpp"
 #include "dataset/io.hpp"
 #include "params/parameter_space.hpp"
 #include "params/yaml_util.hpp"
@@ -128,7 +129,7 @@ void add_report_command(CLI::App& app, int& exit_code) {
                   "keep re-rendering as observations arrive (the page reloads itself while a run goes on); "
                   "ends when every run has finished, or on Ctrl-C");
     cmd->add_option("--interval", opt->interval_s, "seconds between checks and page reloads with --follow, 1..3600")
-        ->check(CLI::Range(1.0, 3600.0))
+        ->check(maptune::params::finite_range(1.0, 3600.0))
         ->capture_default_str();
     cmd->callback([opt, &exit_code] {
         if (opt->grid.size() == 2) {

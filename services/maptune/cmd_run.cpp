@@ -1,6 +1,7 @@
 // maptune run: the embedded default — every service in one process on a private DDS domain.
 #ifdef MAPTUNE_HAVE_SERVICES
 #include "commands.hpp"
+#include "params/cli_range.hpp"
 #include "embedded.hpp"
 #include "runtime.hpp"
 #include "validate_cli.hpp"
@@ -67,7 +68,7 @@ void add_run_command(CLI::App& app, int& exit_code) {
                   "start no matcher workers: wait for workers of the experiment's matcher.id started apart "
                   "(plug-ins, other machines) on --domain");
     cmd->add_option("--wait", opt->wait_s, "seconds to wait for the first compatible worker (default: 120)")
-        ->check(CLI::Range(1.0, 86400.0));
+        ->check(maptune::params::finite_range(1.0, 86400.0));
     cmd->add_flag("!--no-progress", opt->progress_bar, "no progress bar");
     cmd->add_option("--seeds", opt->seeds,
                     "optimizer seeds, e.g. 1,2,3: one run directory per seed (seed-<n>) sharing one store "

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "commands.hpp"
+#include "params/cli_range.hpp"
 #include "experiment/experiment.hpp"
 #include "experiment/run_files.hpp"
 #include "params/parameter_space.hpp"
@@ -134,7 +135,7 @@ void add_trials_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--e-star", opt->e_star, "e* [m] of the score, > 0.05 (default: 0.4)");
     cmd->add_option("--m-star", opt->m_star,
                     "m* of the score, > 0 (default: the view's pairs with overlap >= 0.3 under --reference)");
-    cmd->add_option("--w-v", opt->w_v, "weight of v in p, 0..1")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+    cmd->add_option("--w-v", opt->w_v, "weight of v in p, 0..1")->check(maptune::params::finite_range(0.0, 1.0))->capture_default_str();
     cmd->add_option("--best", opt->best, "only the N best by p (needs --score-on; sorted by p, best first)");
 #endif
     cmd->add_option("--sort", opt->sort, "sort by id | created | wall_s | matched | p (p needs --score-on)")

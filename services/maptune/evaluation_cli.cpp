@@ -1,31 +1,11 @@
 #ifdef MAPTUNE_HAVE_EVALUATION
 #include "evaluation_cli.hpp"
 
-#include <cmath>
-#include <cstdlib>
-#include <string>
-
+#include "params/cli_range.hpp"
 #include "params/yaml_util.hpp"
 
 namespace maptune::cli {
 
-namespace {
-
-// CLI::Range lets NaN through (every comparison with it is false): a finite number in [lo, hi].
-CLI::Validator finite_range(double lo, double hi) {
-    return CLI::Validator(
-        [lo, hi](std::string& text) -> std::string {
-            char* end = nullptr;
-            const double v = std::strtod(text.c_str(), &end);
-            if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v < lo || v > hi) {
-                return "'" + text + "' is not a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-            }
-            return "";
-        },
-        "FINITE");
-}
-
-}  // namespace
 
 void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o) {
     cmd.add_option("--dataset", o.dataset, "dataset directory")->required()->check(CLI::ExistingDirectory);
@@ -36,7 +16,7 @@ void add_evaluation_options(CLI::App& cmd, EvaluationCliOptions& o) {
     cmd.add_option("--space", o.space, "design space YAML (default: configs/spaces/lru_matcher.yaml)");
     cmd.add_option("--e-star", o.e_star, "e* [m], > 0.05 (default: 0.4)");
     cmd.add_option("--m-star", o.m_star, "m*, > 0 (default: pairs of the view with gt overlap >= 0.3)");
-    cmd.add_option("--w-v", o.w_v, "weight of v in p, 0..1 (default: 0.5)")->check(CLI::Range(0.0, 1.0));
+    cmd.add_option("--w-v", o.w_v, "weight of v in p, 0..1 (default: 0.5)")->check(maptune::params::finite_range(0.0, 1.0));
     cmd.add_option("--db", o.db, "observation store: reuse stored results and store new ones (default: none)");
     add_matcher_options(cmd, o);
 }
@@ -46,10 +26,10 @@ void add_matcher_options(CLI::App& cmd, EvaluationCliOptions& o) {
     // Bounded like the settings table's time limits: 0, negative or NaN made every pair TIMEOUT.
     cmd.add_option("--pair-time-limit", o.pair_time_limit_s, "seconds per pair before TIMEOUT, 0.001..1e7")
         ->capture_default_str()
-        ->check(finite_range(0.001, 1e7));
+        ->check(params::finite_range(0.001, 1e7));
     cmd.add_option("--time-limit", o.total_time_limit_s, "seconds per evaluation before TIMEOUT, 0.001..1e7")
         ->capture_default_str()
-        ->check(finite_range(0.001, 1e7));
+        ->check(params::finite_range(0.001, 1e7));
     cmd.add_option("--matcher", o.matcher_overrides,
                    "non-optimized matcher setting KEY=VALUE (repeatable; e.g. min_ransac_inliers=8, "
                    "docs/matcher.md); part of the observation key");

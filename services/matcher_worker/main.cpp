@@ -10,6 +10,7 @@
 #include "params/yaml_util.hpp"
 #include "matcher_worker.hpp"
 #include "runtime.hpp"
+#include "params/cli_range.hpp"
 
 int main(int argc, char** argv) {
     using namespace maptune::services;
@@ -29,7 +30,7 @@ int main(int argc, char** argv) {
     app.add_option("--cache", cache, "directory for fetched dataset files (default: /tmp/maptune-cache)");
     double submap_cache_mb = static_cast<double>(LruBackend::kDefaultSubmapCacheBytes >> 20);
     app.add_option("--submap-cache-mb", submap_cache_mb, "loaded submaps kept in memory, MB (default: 1024)")
-        ->check(CLI::Range(1.0, 1e7));
+        ->check(maptune::params::finite_range(1.0, 1e7));
     std::string experiment_file;
     std::vector<std::string> overrides;
     app.add_option("--experiment", experiment_file,
@@ -41,7 +42,7 @@ int main(int argc, char** argv) {
     app.add_flag("--analytic", analytic, "run the analytic test objective instead of the PCL matcher");
     app.add_option("--delay", analytic_options.delay_per_pair_s, "analytic: seconds per pair (default: 0)");
     app.add_option("--failure-rate", analytic_options.failure_rate, "analytic: task failure probability, 0..1 (default: 0)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(maptune::params::finite_range(0.0, 1.0));
     add_dds_options(app, dds);
     CLI11_PARSE(app, argc, argv);
     install_stop_signals();

@@ -7,6 +7,7 @@
 #include "evaluation/validation.hpp"
 #include "optimizer_service.hpp"
 #include "runtime.hpp"
+#include "params/cli_range.hpp"
 
 int main(int argc, char** argv) {
     using namespace maptune::services;
@@ -20,7 +21,7 @@ int main(int argc, char** argv) {
     app.add_option("--matcher", options.matcher_id, "matcher id of the workers (default: lru_matcher)");
     app.add_option("--wait", options.wait_s, "seconds to wait for dataset and workers (default: 120)");
     app.add_option("--resend", options.resend_s, "seconds before an unanswered request is sent again (default: 15)")
-        ->check(CLI::Range(0.1, 3600.0));
+        ->check(maptune::params::finite_range(0.1, 3600.0));
     app.add_option("--cache", cache, "directory for fetched dataset metadata (default: /tmp/maptune-cache)");
     add_dds_options(app, dds);
     CLI11_PARSE(app, argc, argv);

@@ -191,6 +191,10 @@ TEST_F(CliTest, HelpAndUsageErrors) {
         EXPECT_EQ(r.exit_code, 2) << limit;
         EXPECT_NE(r.err.find("time-limit"), std::string::npos) << limit << " → " << r.err;
     }
+    // Every float option: CLI::Range let NaN through.
+    const CliRun wait = maptune("run --experiment configs/experiments/demo.yaml --wait nan");
+    EXPECT_EQ(wait.exit_code, 2);
+    EXPECT_NE(wait.err.find("'nan' is not a finite number"), std::string::npos) << wait.err;
 #endif
 }
 
