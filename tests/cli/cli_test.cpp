@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "test_domain.hpp"
 #include "store/observation_store.hpp"
 
 namespace {
@@ -257,7 +258,9 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
         << "validate:\n  - label: held\n    dataset: {dir: held, generate: {preset: lab-tiny, runs: 1, "
            "submaps: 4, seed: 8}}\n    m_star: 3\n";
     const fs::path root = dir_ / "runs";
-    const CliRun run = maptune("run --experiment " + (dir_ / "exp.yaml").string() + " --run-dir " +
+    // A domain no other test process holds (the run's own pick is random in 1..200).
+    const CliRun run = maptune("run --domain " + std::to_string(maptune::test::reserve_domain()) + " --experiment " +
+                               (dir_ / "exp.yaml").string() + " --run-dir " +
                                root.string() + " --seeds 1,2 --no-progress");
     ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
     for (const char* seed : {"seed-1", "seed-2"}) {

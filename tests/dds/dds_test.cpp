@@ -16,6 +16,7 @@
 #include <set>
 #include <thread>
 
+#include "test_domain.hpp"
 #include "dds/participant.hpp"
 #include "fastdds_shm.hpp"
 #include "maptunePubSubTypes.h"
@@ -28,10 +29,7 @@ namespace {
 namespace v1 = maptune::msg::v1;
 using namespace std::chrono_literals;
 
-int random_domain() {
-    std::random_device rd;
-    return std::uniform_int_distribution<int>(1, 200)(rd);  // below 232: room for 100 participant ids
-}
+int random_domain() { return test::reserve_domain(); }
 
 // Polls `pred` until true or `timeout`.
 template <class Pred>

@@ -21,6 +21,7 @@
 #include "maptunePubSubTypes.h"
 #include "optimizer_service.hpp"
 #include "temp_dataset.hpp"
+#include "test_domain.hpp"
 
 namespace maptune {
 namespace {
@@ -40,7 +41,7 @@ TEST(OptimizerReplies, StaleAndForeignRepliesAreNeverToldToTheModel) {
     const auto e = experiment::load_experiment((dir / "exp.yaml").string());
     const dataset::Dataset ds = dataset::Dataset::open(lab);
     const auto pairs = ds.pairs(dataset::View::complete, dataset::Reference::gt);
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    const int domain = test::reserve_domain();
 
     // Every pair matched exactly (p > 0) or not at all (p = 0).
     auto results = [&](bool matched) {
@@ -195,7 +196,7 @@ TEST(OptimizerReplies, WorkersThatCannotRunTheExperimentsMatcherAreNotUsed) {
     std::ofstream(dir / "exp.yaml") << "name: version\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
                                     << "dataset: " << lab.string() << "\nmeasure: {m_star: 3}\nbudget: {evaluations: 2}\n";
     const auto e = experiment::load_experiment((dir / "exp.yaml").string());
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    const int domain = test::reserve_domain();
     {
         dds::Participant fake({domain, "", "maptune_loopback", "fake_worker"});
         auto status = fake.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);

@@ -25,6 +25,7 @@
 #include "dataset_server.hpp"
 #include "sample_db.hpp"
 #include "temp_dataset.hpp"
+#include "test_domain.hpp"
 
 namespace maptune {
 namespace {
@@ -84,7 +85,7 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
     const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 3, 4);
     const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
     const dataset::Dataset ds = dataset::Dataset::open(lab);
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    const int domain = test::reserve_domain();
 
     // What the worker answers, task by task: NaN, then good; timeouts, then good.
     enum class Answer { kNan, kGood, kTimeout, kFail };
@@ -284,7 +285,7 @@ namespace {
 TEST(DatasetServerFaults, RefusesADatasetWhoseFilesChanged) {
     const fs::path dir = test::make_temp_dir("maptune_dataset_server_faults_");
     const fs::path lab = test::generate_tiny_dataset(dir, "lab", 1, 2, 4);
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    const int domain = test::reserve_domain();
     dds::Participant p({domain, "", "maptune_loopback", "dataset_server"});
     { services::DatasetServer intact(p, {{lab.string()}, 0, ""}); }
     const dataset::Dataset ds = dataset::Dataset::open(lab);
@@ -315,7 +316,7 @@ TEST(SampleDbFaults, AHungDatasetTransferDoesNotStopOtherRequests) {
     const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
     const std::string served_id = dataset::Dataset::open(served).manifest().id;
     const std::string hung_id = dataset::Dataset::open(hung).manifest().id;
-    const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+    const int domain = test::reserve_domain();
     std::mutex m;
     std::vector<v1::ObservationReply> replies;
     {

@@ -17,6 +17,7 @@
 #include "fastdds_shm.hpp"
 #include "runtime.hpp"
 #include "store/observation_store.hpp"
+#include "test_domain.hpp"
 #include "worker_backend.hpp"
 
 namespace maptune {
@@ -55,8 +56,7 @@ protected:
         char tmpl[] = "/tmp/maptune_services_test_XXXXXX";
         ASSERT_NE(mkdtemp(tmpl), nullptr);
         dir_ = tmpl;
-        std::random_device rd;
-        domain_ = std::uniform_int_distribution<int>(1, 200)(rd);
+        domain_ = test::reserve_domain();
         shm_before_ = testing::fastdds_shm_files();
     }
     void TearDown() override {
@@ -121,7 +121,7 @@ protected:
         store::ObservationStore store(db());
         const auto all = store.list();
         ASSERT_FALSE(all.empty());
-        dds::Participant p({domain_ == 200 ? 199 : domain_ + 1, "", "maptune_loopback", "check"});
+        dds::Participant p({test::reserve_domain(), "", "maptune_loopback", "check"});
         services::DatasetMirror mirror(p, dir_ / "cache_check", "check");
         mirror.add_local(lab());
         const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");

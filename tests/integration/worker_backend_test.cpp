@@ -12,6 +12,7 @@
 #include "dds/participant.hpp"
 #include "fastdds_shm.hpp"
 #include "temp_dataset.hpp"
+#include "test_domain.hpp"
 #include "worker_backend.hpp"
 
 namespace maptune {
@@ -34,7 +35,7 @@ protected:
         dir = test::make_temp_dir("maptune_worker_backend_");
         shm_before = testing::fastdds_shm_files();
         lab = test::generate_tiny_dataset(dir, "lab", 1, 4, 2);
-        const int domain = std::uniform_int_distribution<int>(1, 200)(*std::make_unique<std::random_device>());
+        const int domain = test::reserve_domain();
         participant = std::make_unique<dds::Participant>(dds::ParticipantOptions{domain, "", "maptune_loopback", "worker"});
         mirror = std::make_unique<services::DatasetMirror>(*participant, dir / "cache", "worker");
         mirror->add_local(lab);
