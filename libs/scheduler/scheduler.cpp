@@ -1,8 +1,104 @@
 #include "scheduler/scheduler.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <tuple>
 
 namespace maptune::scheduler {
+
+std::pair<std::string, std::string> pair_submaps(const std::string& pair_id) {
+    const auto bar = pair_id.find('|');
+    if (bar == std::string::npos) return {pair_id, pair_id};
+    return {pair_id.substr(0, bar), pair_id.substr(bar + 1)};
+}
+
+std::vector<PlannedShard> plan_shards(const std::vector<std::string>& pair_ids, std::size_t shard_size,
+                                      bool tiles_order) {
+    const std::size_t n = pair_ids.size();
+    std::vector<PlannedShard> shards;
+    if (n == 0) return shards;
+    // Submaps numbered in order of first appearance; components by union-find.
+    std::map<std::string, std::size_t> number;
+    std::vector<std::size_t> parent;
+    std::vector<std::pair<std::size_t, std::size_t>> ends(n);
+    auto root = [&](std::size_t x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto [a, b] = pair_submaps(pair_ids[i]);
+        for (const std::string* id : {&a, &b}) {
+            if (number.emplace(*id, parent.size()).second) parent.push_back(parent.size());
+        }
+        ends[i] = {number.at(a), number.at(b)};
+        parent[root(ends[i].first)] = root(ends[i].second);
+    }
+    // Components numbered in order of first appearance, and submaps within each.
+    std::map<std::size_t, int> component;  // root -> component
+    std::vector<std::size_t> local(parent.size());
+    std::map<int, std::size_t> size_of;
+    for (std::size_t s = 0; s < parent.size(); ++s) {
+        const int c = component.emplace(root(s), static_cast<int>(component.size())).first->second;
+        local[s] = size_of[c]++;
+    }
+    if (!tiles_order) {
+        const std::size_t size = shard_size == 0 ? n : shard_size;
+        for (std::size_t begin = 0; begin < n; begin += size) {
+            PlannedShard shard;
+            for (std::size_t k = begin; k < std::min(n, begin + size); ++k) shard.pairs.push_back(k);
+            shard.component = component.at(root(ends[begin].first));
+            shards.push_back(std::move(shard));
+        }
+        return shards;
+    }
+    const std::size_t block =
+        shard_size == 0 ? std::numeric_limits<std::size_t>::max()
+                        : static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(shard_size))));
+    // (component, larger tile, smaller tile, pair)
+    std::vector<std::tuple<int, std::size_t, std::size_t, std::size_t>> order;
+    order.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t ta = local[ends[i].first] / block, tb = local[ends[i].second] / block;
+        // Growing squares: all tiles of blocks 0..k before any tile touching block k + 1, so
+        // the unstarted rest of a component needs submaps its first worker does not hold.
+        order.emplace_back(component.at(root(ends[i].first)), std::max(ta, tb), std::min(ta, tb), i);
+    }
+    std::sort(order.begin(), order.end());
+    // A component of at least `size` pairs is cut into equal shards; smaller ones are packed
+    // together, consecutively, up to `size` pairs.
+    const std::size_t size = shard_size == 0 ? n : shard_size;
+    PlannedShard pack;
+    auto flush = [&] {
+        if (!pack.pairs.empty()) shards.push_back(std::move(pack));
+        pack = {};
+    };
+    for (std::size_t begin = 0; begin < n;) {
+        const int c = std::get<0>(order[begin]);
+        std::size_t end = begin;
+        while (end < n && std::get<0>(order[end]) == c) ++end;
+        const std::size_t m = end - begin;
+        if (m >= size) {
+            flush();
+            const std::size_t parts = (m + size - 1) / size;
+            for (std::size_t p = 0; p < parts; ++p) {
+                PlannedShard shard;
+                shard.component = c;
+                for (std::size_t k = begin + m * p / parts; k < begin + m * (p + 1) / parts; ++k) {
+                    shard.pairs.push_back(std::get<3>(order[k]));
+                }
+                shards.push_back(std::move(shard));
+            }
+        } else {
+            if (pack.pairs.size() + m > size) flush();
+            if (pack.pairs.empty()) pack.component = c;
+            for (std::size_t k = begin; k < end; ++k) pack.pairs.push_back(std::get<3>(order[k]));
+        }
+        begin = end;
+    }
+    flush();
+    return shards;
+}
 
 Scheduler::Scheduler(SchedulerOptions options) : options_(options) {
     if (options_.max_attempts < 1) options_.max_attempts = 1;
@@ -30,15 +126,100 @@ void Scheduler::heartbeat(const WorkerInfo& worker, double now, const std::vecto
 void Scheduler::remove_worker(const std::string& worker_id) {
     const auto it = workers_.find(worker_id);
     if (it == workers_.end()) return;
-    for (const auto& task : it->second.tasks) requeue(shards_.at(task));
+    for (const auto& task : std::set<std::string>(it->second.tasks)) requeue(shards_.at(task));
+    forget(it->second);
     workers_.erase(it);
 }
 
 void Scheduler::requeue(Shard& shard) {
     if (auto w = workers_.find(shard.worker); w != workers_.end()) w->second.tasks.erase(shard.task_id);
     shard.worker.clear();
-    // Re-assigned shards go first: their job has waited longest.
-    queue_.push_front(shard.task_id);
+    // Re-assigned shards go first within their job (jobs themselves are served oldest first).
+    jobs_.at(shard.job_key).queued.push_front(shard.task_id);
+}
+
+void Scheduler::hold(Worker& w, const Shard& shard, Job& job) {
+    job.component_workers[shard.component].insert(w.info.id);
+    SubmapIndex& index = submaps_[job.spec.dataset_id];
+    std::vector<char>& held = w.held[job.spec.dataset_id];
+    if (held.size() < index.holders.size()) held.resize(index.holders.size(), 0);
+    for (const int id : shard.submaps) {
+        if (held[static_cast<std::size_t>(id)]) continue;
+        held[static_cast<std::size_t>(id)] = 1;
+        ++index.holders[static_cast<std::size_t>(id)];
+    }
+}
+
+void Scheduler::forget(Worker& w) {
+    for (auto& [key, job] : jobs_) {
+        for (auto& [component, ids] : job.component_workers) ids.erase(w.info.id);
+    }
+    for (const auto& [dataset_id, held] : w.held) {
+        SubmapIndex& index = submaps_[dataset_id];
+        for (std::size_t id = 0; id < held.size(); ++id) {
+            if (held[id]) --index.holders[id];
+        }
+    }
+    w.held.clear();
+}
+
+std::string Scheduler::pick_for(const Worker& w, double now) const {
+    for (const auto& key : job_order_) {
+        const Job& job = jobs_.at(key);
+        if (job.queued.empty() || !compatible(w, job.spec, now)) continue;
+        const auto held_it = w.held.find(job.spec.dataset_id);
+        const std::vector<char>* held = held_it == w.held.end() ? nullptr : &held_it->second;
+        const std::vector<int>& holders = submaps_.at(job.spec.dataset_id).holders;
+        if (!options_.locality) return job.queued.front();
+        std::map<int, std::size_t> queued_pairs;  // per component: work a newcomer could share
+        for (const auto& task : job.queued) {
+            const Shard& shard = shards_.at(task);
+            queued_pairs[shard.component] += shard.pairs.size();
+        }
+        // Costs per pair of the shard (a small tail shard is not cheaper per unit of work).
+        std::string best;
+        bool best_shared = false;
+        std::size_t best_new = 0, best_others = 0, best_pairs = 1, best_left = 0;
+        for (const auto& task : job.queued) {
+            const Shard& shard = shards_.at(task);
+            std::size_t fresh = 0, others = 0;  // submaps new to w; of those, held by others
+            for (const int id : shard.submaps) {
+                const auto i = static_cast<std::size_t>(id);
+                if (held != nullptr && i < held->size() && (*held)[i]) continue;
+                ++fresh;
+                if (holders[i] > 0) ++others;
+            }
+            bool shared = false;  // entering a component another worker is in
+            if (fresh > 0) {
+                if (const auto c = job.component_workers.find(shard.component); c != job.component_workers.end()) {
+                    shared = c->second.size() > c->second.count(w.info.id);
+                }
+            }
+            // Joining others: where the most work is left per worker already there.
+            std::size_t left = 0;
+            if (shared) {
+                const auto& there = job.component_workers.at(shard.component);
+                left = queued_pairs[shard.component] / there.size();
+            }
+            const std::size_t pairs = std::max<std::size_t>(1, shard.pairs.size());
+            const auto a = fresh * best_pairs, b = best_new * pairs;
+            const bool better = best.empty() || (shared != best_shared ? !shared
+                                                 : a != b              ? a < b
+                                                 : left != best_left   ? left > best_left
+                                                                       : others * best_pairs < best_others * pairs);
+            if (better) {
+                best = task;
+                best_shared = shared;
+                best_new = fresh;
+                best_others = others;
+                best_pairs = pairs;
+                best_left = left;
+                if (fresh == 0) break;  // nothing to compute: cannot do better
+            }
+        }
+        return best;
+    }
+    return {};
 }
 
 bool Scheduler::submit(const std::string& job_key, JobSpec spec, const std::string& requester,
@@ -54,22 +235,33 @@ bool Scheduler::submit(const std::string& job_key, JobSpec spec, const std::stri
     job.started_at = now;
     job.pairs.resize(spec.pair_ids.size());
     for (std::size_t i = 0; i < spec.pair_ids.size(); ++i) job.pairs[i].pair_id = spec.pair_ids[i];
-    const std::size_t n = spec.pair_ids.size();
-    const std::size_t size = options_.shard_size == 0 ? std::max<std::size_t>(n, 1) : options_.shard_size;
-    for (std::size_t begin = 0; begin < n; begin += size) {
+    SubmapIndex& index = submaps_[spec.dataset_id];
+    for (auto& planned : plan_shards(spec.pair_ids, options_.shard_size, options_.locality)) {
+        auto& pairs = planned.pairs;
         Shard shard;
+        shard.component = planned.component;
         shard.task_id = options_.task_prefix + "t" + std::to_string(next_task_++);
         shard.job_key = job_key;
-        shard.begin = begin;
-        shard.end = std::min(n, begin + size);
+        for (const std::size_t i : pairs) {
+            const auto [a, b] = pair_submaps(spec.pair_ids[i]);
+            for (const std::string* id : {&a, &b}) {
+                const auto [it, added] = index.ids.emplace(*id, static_cast<int>(index.holders.size()));
+                if (added) index.holders.push_back(0);
+                shard.submaps.push_back(it->second);
+            }
+        }
+        std::sort(shard.submaps.begin(), shard.submaps.end());
+        shard.submaps.erase(std::unique(shard.submaps.begin(), shard.submaps.end()), shard.submaps.end());
+        shard.pairs = std::move(pairs);
         job.shard_ids.push_back(shard.task_id);
-        queue_.push_back(shard.task_id);
-        shards_[shard.task_id] = shard;
+        job.queued.push_back(shard.task_id);
+        shards_[shard.task_id] = std::move(shard);
     }
     job.remaining = job.shard_ids.size();
     job.spec = std::move(spec);
     const bool empty = job.remaining == 0;
     jobs_[job_key] = std::move(job);
+    if (!empty) job_order_.push_back(job_key);
     if (empty) {
         Job& j = jobs_[job_key];
         completed_.push_back({job_key, j.spec, j.requesters, j.pairs, j.started_at, now});
@@ -85,46 +277,57 @@ std::vector<Assignment> Scheduler::schedule(double now) {
     }
     for (auto it = workers_.begin(); it != workers_.end();) {
         // Forget long-silent workers; they re-register with their next heartbeat.
-        it = now - it->second.last_seen > 3 * options_.lease_s ? workers_.erase(it) : std::next(it);
+        if (now - it->second.last_seen > 3 * options_.lease_s) {
+            forget(it->second);
+            it = workers_.erase(it);
+        } else {
+            ++it;
+        }
     }
     expire_unserved(now);
     std::vector<Assignment> out;
     // With every slot taken nothing can be assigned: skip the scan of the queue.
-    if (queue_.empty() || free_slots() == 0) return out;
-    std::deque<std::string> waiting;
-    while (!queue_.empty()) {
-        const std::string task = queue_.front();
-        queue_.pop_front();
-        Shard& shard = shards_.at(task);
-        const Job& job = jobs_.at(shard.job_key);
-        // The least loaded compatible live worker (ties: the one idle longest by id order).
-        Worker* best = nullptr;
-        for (auto& [id, w] : workers_) {
-            if (!compatible(w, job.spec, now)) continue;
-            const int free = w.info.slots - static_cast<int>(w.tasks.size());
-            if (free <= 0) continue;
-            if (best == nullptr || w.tasks.size() < best->tasks.size()) best = &w;
+    if (queued_shards() == 0 || free_slots() == 0) return out;
+    // One shard at a time to the least loaded worker that can take one (ties: id order), each
+    // chosen for that worker's submaps.
+    std::set<std::string> nothing_for;
+    while (true) {
+        Worker* w = nullptr;
+        for (auto& [id, candidate] : workers_) {
+            if (nothing_for.count(id) || now - candidate.last_seen > options_.lease_s) continue;
+            if (candidate.info.slots - static_cast<int>(candidate.tasks.size()) <= 0) continue;
+            if (w == nullptr || candidate.tasks.size() < w->tasks.size()) w = &candidate;
         }
-        if (best == nullptr) {
-            waiting.push_back(task);
+        if (w == nullptr) break;
+        const std::string task = pick_for(*w, now);
+        if (task.empty()) {
+            nothing_for.insert(w->info.id);
             continue;
         }
-        shard.worker = best->info.id;
+        Shard& shard = shards_.at(task);
+        Job& job = jobs_.at(shard.job_key);
+        job.queued.erase(std::find(job.queued.begin(), job.queued.end(), task));
+        shard.worker = w->info.id;
         ++shard.attempts;
         shard.assigned_at = now;
-        best->tasks.insert(task);
+        w->tasks.insert(task);
+        hold(*w, shard, job);
         Assignment a;
         a.task_id = task;
-        a.worker_id = best->info.id;
+        a.worker_id = w->info.id;
         a.job_key = shard.job_key;
         a.job = &job.spec;
-        a.pair_ids.assign(job.spec.pair_ids.begin() + static_cast<std::ptrdiff_t>(shard.begin),
-                          job.spec.pair_ids.begin() + static_cast<std::ptrdiff_t>(shard.end));
+        for (const std::size_t i : shard.pairs) a.pair_ids.push_back(job.spec.pair_ids[i]);
         a.attempt = shard.attempts;
         out.push_back(std::move(a));
     }
-    queue_ = std::move(waiting);
     return out;
+}
+
+std::size_t Scheduler::queued_shards() const {
+    std::size_t n = 0;
+    for (const auto& [key, job] : jobs_) n += job.queued.size();
+    return n;
 }
 
 std::string code_revision(const std::string& matcher_version) {
@@ -166,7 +369,7 @@ void Scheduler::expire_unserved(double now) {
         }
         for (const auto& id : open) {
             Shard& shard = shards_.at(id);
-            for (std::size_t i = shard.begin; i < shard.end; ++i) {
+            for (const std::size_t i : shard.pairs) {
                 job.pairs[i].matched = false;
                 job.pairs[i].status = store::PairStatus::kFailed;
                 job.pairs[i].reason = job.failure;
@@ -180,13 +383,14 @@ void Scheduler::expire_unserved(double now) {
 std::optional<CompletedJob> Scheduler::finish_shard(Shard& shard, double now) {
     shard.done = true;
     if (auto w = workers_.find(shard.worker); w != workers_.end()) w->second.tasks.erase(shard.task_id);
-    queue_.erase(std::remove(queue_.begin(), queue_.end(), shard.task_id), queue_.end());
     Job& job = jobs_.at(shard.job_key);
+    job.queued.erase(std::remove(job.queued.begin(), job.queued.end(), shard.task_id), job.queued.end());
     if (--job.remaining > 0) return std::nullopt;
     CompletedJob done{shard.job_key, std::move(job.spec), std::move(job.requesters),
                       std::move(job.pairs), job.started_at, now, job.worker_failures, job.failure};
     for (const auto& id : job.shard_ids) shards_.erase(id);
     jobs_.erase(done.job_key);
+    job_order_.erase(std::remove(job_order_.begin(), job_order_.end(), done.job_key), job_order_.end());
     return done;
 }
 
@@ -199,26 +403,23 @@ std::optional<CompletedJob> Scheduler::complete(const std::string& task_id,
     Shard& shard = it->second;
     // A worker that lost its lease may still deliver, unless another worker holds it now.
     if (shard.worker != worker_id && !shard.worker.empty()) return std::nullopt;
-    if (results.size() != shard.end - shard.begin) {
+    if (results.size() != shard.pairs.size()) {
         // A wrong-sized answer is a failed attempt, not a lost one: otherwise the shard would
         // stay assigned to a live worker forever.
         return fail(task_id, worker_id,
                     "returned " + std::to_string(results.size()) + " pair results for " +
-                        std::to_string(shard.end - shard.begin) + " pairs",
+                        std::to_string(shard.pairs.size()) + " pairs",
                     now);
     }
     if (auto w = workers_.find(worker_id); w != workers_.end()) w->second.last_seen = now;
     Job& job = jobs_.at(shard.job_key);
     for (std::size_t i = 0; i < results.size(); ++i) {
-        store::PairRecord& slot = job.pairs[shard.begin + i];
+        store::PairRecord& slot = job.pairs[shard.pairs[i]];
         const std::string id = slot.pair_id;
         slot = std::move(results[i]);
         slot.pair_id = id;  // the order is the contract; ids from the worker are not trusted
     }
-    if (shard.worker.empty()) {  // late delivery of a re-queued shard: drop it from the queue
-        queue_.erase(std::remove(queue_.begin(), queue_.end(), task_id), queue_.end());
-    }
-    return finish_shard(shard, now);
+    return finish_shard(shard, now);  // also drops a re-queued shard delivered late from the queue
 }
 
 std::optional<CompletedJob> Scheduler::fail(const std::string& task_id,
@@ -235,7 +436,7 @@ std::optional<CompletedJob> Scheduler::fail(const std::string& task_id,
     Job& job = jobs_.at(shard.job_key);
     job.worker_failures = true;
     job.failure = "a shard failed " + std::to_string(shard.attempts) + " times: " + reason;
-    for (std::size_t i = shard.begin; i < shard.end; ++i) {
+    for (const std::size_t i : shard.pairs) {
         job.pairs[i].matched = false;
         job.pairs[i].status = store::PairStatus::kFailed;
         job.pairs[i].reason = "worker failed " + std::to_string(shard.attempts) + " times: " + reason;

@@ -2,8 +2,11 @@
 // Coordinates evaluations across matcher workers (ARCHITECTURE: sample_db).
 //
 // A job is one observation to compute: a parameter set on a list of pairs. It is split into
-// shards of at most `shard_size` pairs; each shard is leased to a worker with a free slot
-// and the same design space and matcher. A worker that sends no heartbeat for `lease_s`
+// shards of at most `shard_size` pairs that touch few submaps (plan_shards); each shard is
+// leased to a worker with a free slot and the same design space and matcher, preferring the
+// worker that already holds the shard's submaps (its feature cache), so that the feature work
+// of all workers together stays close to one pass over the submaps (docs/distributed.md,
+// "Locality"). A worker that sends no heartbeat for `lease_s`
 // loses its shards, which go back to the queue; a shard that failed `max_attempts` times
 // is reported as FAILED pairs with the reason. Identical concurrent jobs (same key) run
 // once and answer every requester. Results from a worker that lost its lease are ignored
@@ -36,6 +39,9 @@ struct SchedulerOptions {
     // this long completes as a failure naming what is missing, instead of waiting forever.
     // <= 0: wait forever.
     double unserved_timeout_s = 300.0;
+    // false: shards of consecutive pairs handed out oldest first to the least loaded worker
+    // (no regard to submaps; for measuring what locality gains).
+    bool locality = true;
 };
 
 struct WorkerInfo {
@@ -51,6 +57,23 @@ struct WorkerInfo {
 // The part of a matcher version before its first '-' ("3-1a2b3c4d" -> "3"): versions of one
 // revision differ only in settings, which a task can carry.
 std::string code_revision(const std::string& matcher_version);
+
+// The two submap ids of a pair id "idA|idB" (an id without '|' is one submap: both).
+std::pair<std::string, std::string> pair_submaps(const std::string& pair_id);
+
+// Groups pairs into shards of at most `shard_size` pairs (0: one shard per component) that
+// touch few submaps. The pairs' submaps form connected components (with the complete view:
+// the runs); a shard never spans two. Within a component submaps are numbered in order of
+// first appearance and cut into blocks of ceil(sqrt(shard_size)); pairs are ordered by the
+// tile (block of A, block of B) of the submap x submap matrix they fall in, keeping their
+// order within a tile, then cut. A row of 8 pairs of one submap touches 9 submaps, a 3 x 3
+// tile 6. tiles = false: consecutive pairs in their given order, `shard_size` at a time.
+struct PlannedShard {
+    std::vector<std::size_t> pairs;  // indices into pair_ids
+    int component = 0;
+};
+std::vector<PlannedShard> plan_shards(const std::vector<std::string>& pair_ids, std::size_t shard_size,
+                                      bool tiles = true);
 
 struct JobSpec {
     std::string dataset_id;
@@ -116,7 +139,7 @@ public:
                                      const std::string& reason, double now);
 
     // Jobs whose shards no live worker can run (no worker with that matcher/space yet).
-    std::size_t queued_shards() const { return queue_.size(); }
+    std::size_t queued_shards() const;
     std::size_t running_shards() const;
     std::size_t jobs() const { return jobs_.size(); }
     std::size_t workers() const { return workers_.size(); }
@@ -128,7 +151,9 @@ private:
     struct Shard {
         std::string task_id;
         std::string job_key;
-        std::size_t begin = 0, end = 0;  // range in the job's pair list
+        std::vector<std::size_t> pairs;  // indices into the job's pair list
+        std::vector<int> submaps;        // distinct submaps it touches (SubmapIndex numbers)
+        int component = 0;               // of the job's pair graph (PlannedShard)
         std::string worker;              // empty while queued
         int attempts = 0;
         double assigned_at = 0;
@@ -145,11 +170,21 @@ private:
         std::string failure;
         double started_at = 0;
         std::optional<double> unserved_since;  // no compatible live worker since then
+        std::deque<std::string> queued;        // its shards waiting for a worker, oldest first
+        std::map<int, std::set<std::string>> component_workers;  // who was given shards of it
     };
     struct Worker {
         WorkerInfo info;
         double last_seen = 0;
         std::set<std::string> tasks;
+        // By dataset: submaps of shards it was given (a proxy for its feature cache, which
+        // keeps them across jobs that share per-submap parameters).
+        std::map<std::string, std::vector<char>> held;
+    };
+    // Submaps of one dataset, numbered; how many live workers hold each.
+    struct SubmapIndex {
+        std::map<std::string, int> ids;
+        std::vector<int> holders;
     };
 
     std::optional<CompletedJob> finish_shard(Shard& shard, double now);
@@ -157,13 +192,21 @@ private:
     // Ends jobs that waited unserved_timeout_s without a compatible worker (into completed_).
     void expire_unserved(double now);
     void requeue(Shard& shard);
+    // The queued shard `w` should run next, of the oldest job with a shard `w` can run: one
+    // that needs no submap `w` lacks, else one in a component no other worker was given
+    // shards of (runs are shared out whole); then the fewest submaps `w` lacks per pair, the
+    // fewest of those held by others, the oldest. Empty when none.
+    std::string pick_for(const Worker& w, double now) const;
+    void hold(Worker& w, const Shard& shard, Job& job);
+    void forget(Worker& w);
 
     SchedulerOptions options_;
     std::uint64_t next_task_ = 1;
     std::map<std::string, Job> jobs_;
     std::map<std::string, Shard> shards_;
-    std::deque<std::string> queue_;  // task ids waiting for a worker, oldest first
+    std::vector<std::string> job_order_;  // job keys, oldest first
     std::map<std::string, Worker> workers_;
+    std::map<std::string, SubmapIndex> submaps_;  // by dataset id
     std::vector<CompletedJob> completed_;
 };
 

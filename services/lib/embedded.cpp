@@ -116,11 +116,15 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         SampleDbOptions db_options;
         db_options.store_path = db;
         db_options.spaces = {e.space};
+        db_options.scheduler.locality = options.locality;
         db_options.log = [](const std::string& line) { std::cerr << "sample_db: " << line << std::endl; };
         SampleDb sample_db(*db_p, db_mirror, db_options);
 
+        // The experiment's `matcher.threads` per worker when set; else the cores shared out.
         const matcher::MatcherSettings settings = evaluation::experiment_matcher_settings(
-            e, std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / std::max(1, n_workers)));
+            e, e.matcher_threads > 0
+                   ? e.matcher_threads
+                   : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / std::max(1, n_workers)));
         std::vector<std::unique_ptr<dds::Participant>> worker_ps;
         std::vector<std::unique_ptr<DatasetMirror>> mirrors;
         std::vector<std::unique_ptr<WorkerBackend>> backends;
@@ -168,6 +172,18 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
             print_summary(e, summary, run_dir);
             if (summary.best < 0) exit_code = 1;
             if (result) result->runs.push_back({seed, run_dir, std::move(summary)});
+        }
+        if (reference && !backends.empty()) {
+            // Feature work of the workers together (a submap computed by two workers counts
+            // twice): the scheduler's locality shows here (docs/distributed.md, "Locality").
+            std::size_t total = 0;
+            std::string each;
+            for (std::size_t i = 0; i < backends.size(); ++i) {
+                total += backends[i]->feature_computations();
+                each += (i ? " + " : "") + std::to_string(backends[i]->feature_computations());
+            }
+            std::cout << "submap feature computations by " << backends.size() << " worker(s): "
+                      << (backends.size() > 1 ? each + " = " : "") << total << std::endl;
         }
     } catch (const std::exception& err) {
         std::cerr << "maptune run: " << err.what() << "\n";

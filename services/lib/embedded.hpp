@@ -24,6 +24,7 @@ struct EmbeddedOptions {
     bool external_workers = false;
     double wait_s = 120;
     bool progress_bar = true;
+    bool locality = true;            // false: sample_db's --no-locality (measurements)
     std::vector<std::uint64_t> seeds;  // empty: the experiment's `seeds`, else its one seed
 };
 

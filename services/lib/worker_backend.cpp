@@ -107,6 +107,7 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
         return out;
     }
     std::vector<std::shared_ptr<const LoadedSubmap>> held;  // alive for the task, evicted or not
+    const std::size_t misses_before = matcher->cache().stats().misses;
     auto results = evaluation::match_pair_ids(
         *matcher, task.params, task.pair_ids,
         [&](const std::string& id, std::string* why) -> const dataset::Submap* {
@@ -116,6 +117,7 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
             return &s->submap;
         },
         &error);
+    feature_computations_ += matcher->cache().stats().misses - misses_before;
     if (!results) {
         out.error = error;
         return out;
@@ -123,6 +125,11 @@ TaskOutcome LruBackend::run(const TaskSpec& task) {
     out.pairs = std::move(*results);
     out.ok = true;
     return out;
+}
+
+std::size_t LruBackend::feature_computations() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return feature_computations_;
 }
 
 // ---- AnalyticBackend ----

@@ -46,6 +46,9 @@ public:
     virtual bool takes_settings() const { return false; }
     // Thread-safe; never throws: failures are outcomes.
     virtual TaskOutcome run(const TaskSpec& task) = 0;
+    // Per-submap feature computations so far (cache misses), for the feature duplication
+    // factor of a distributed evaluation; 0 for a backend without per-submap features.
+    virtual std::size_t feature_computations() const { return 0; }
 };
 
 
@@ -76,6 +79,7 @@ public:
     const params::ParameterSpace& space() const override { return space_; }
     bool takes_settings() const override { return true; }
     TaskOutcome run(const TaskSpec& task) override;
+    std::size_t feature_computations() const override;
 
     matcher::CacheStats submap_cache_stats() const { return submaps_.stats(); }
     // Matchers held (one per settings version recently run; at most kMaxMatchers).
@@ -102,6 +106,7 @@ private:
     // By version, most recently used first; each holds its own feature cache.
     std::vector<std::pair<std::string, std::unique_ptr<matcher::Matcher>>> matchers_;
     matcher::LruCache<LoadedSubmap> submaps_;
+    std::size_t feature_computations_ = 0;  // under mutex_
 };
 
 // A test objective with the matcher's contract and no PCL: estimates are the ground truth

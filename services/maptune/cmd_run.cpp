@@ -70,6 +70,9 @@ void add_run_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--wait", opt->wait_s, "seconds to wait for the first compatible worker (default: 120)")
         ->check(maptune::params::finite_range(1.0, 86400.0));
     cmd->add_flag("!--no-progress", opt->progress_bar, "no progress bar");
+    cmd->add_flag("!--no-locality", opt->locality,
+                  "shards of consecutive pairs oldest first, without regard to the submaps each worker holds "
+                  "(for measuring what locality-aware scheduling gains)");
     cmd->add_option("--seeds", opt->seeds,
                     "optimizer seeds, e.g. 1,2,3: one run directory per seed (seed-<n>) sharing one store "
                     "(default: the experiment's seeds, else its one seed)")

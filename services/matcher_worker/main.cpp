@@ -72,7 +72,8 @@ int main(int argc, char** argv) {
                   << backend->matcher_version() << ", space " << space.hash() << ") ready on domain "
                   << dds.domain_id << std::endl;
         while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        std::cout << "stopping after " << worker.tasks_done() << " tasks" << std::endl;
+        std::cout << "stopping after " << worker.tasks_done() << " tasks, " << backend->feature_computations()
+                  << " submap feature computations" << std::endl;
     } catch (const std::exception& e) {
         std::cerr << "matcher_worker: " << e.what() << "\n";
         return 1;

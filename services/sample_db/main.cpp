@@ -19,11 +19,15 @@ int main(int argc, char** argv) {
     app.add_option("--space", spaces, "accepted design space YAML, repeatable (default: configs/spaces/lru_matcher.yaml)");
     app.add_option("--lease", options.scheduler.lease_s, "seconds of worker silence before its shards move (default: 10)");
     app.add_option("--shard-size", options.scheduler.shard_size, "pairs per task, 0 = one task per request (default: 8)");
+    bool no_locality = false;
+    app.add_flag("--no-locality", no_locality,
+                 "hand out shards of consecutive pairs oldest first, without regard to the submaps workers hold (for measuring what locality gains)");
     app.add_option("--unserved-timeout", options.scheduler.unserved_timeout_s,
                    "seconds a request may wait with no worker for its matcher and space before it is answered with an error, <= 0 = forever (default: 300)");
     app.add_option("--cache", cache, "directory for fetched dataset metadata (default: /tmp/maptune-cache)");
     add_dds_options(app, dds);
     CLI11_PARSE(app, argc, argv);
+    options.scheduler.locality = !no_locality;
     install_stop_signals();
     try {
         for (const auto& s : spaces) options.spaces.push_back(maptune::params::ParameterSpace::load(s));

@@ -4,6 +4,7 @@
 
 #include <map>
 #include <random>
+#include <set>
 
 namespace maptune::scheduler {
 namespace {
@@ -435,6 +436,130 @@ TEST(Scheduler, ZeroUnservedTimeoutWaitsForever) {
     s.schedule(1e6);
     EXPECT_TRUE(s.take_completed().empty());
     EXPECT_EQ(s.jobs(), 1u);
+}
+
+}  // namespace
+}  // namespace maptune::scheduler
+
+namespace maptune::scheduler {
+namespace {
+
+// The complete view of `runs` runs of `submaps` submaps: every pair within a run.
+std::vector<std::string> complete_view(int runs, int submaps) {
+    std::vector<std::string> ids;
+    for (int r = 0; r < runs; ++r) {
+        for (int a = 0; a < submaps; ++a) {
+            for (int b = a + 1; b < submaps; ++b) {
+                ids.push_back("r" + std::to_string(r) + "s" + std::to_string(a) + "|r" + std::to_string(r) + "s" +
+                              std::to_string(b));
+            }
+        }
+    }
+    return ids;
+}
+
+std::set<std::string> submaps_of(const std::vector<std::string>& pair_ids) {
+    std::set<std::string> out;
+    for (const auto& p : pair_ids) {
+        const auto [a, b] = pair_submaps(p);
+        out.insert(a);
+        out.insert(b);
+    }
+    return out;
+}
+
+TEST(ShardPlanner, ShardsStayInsideARunAndTouchFewSubmaps) {
+    const auto ids = complete_view(3, 15);  // 105 pairs per run
+    const auto plan = plan_shards(ids, 8);
+    std::vector<int> seen(ids.size(), 0);
+    std::size_t touched = 0;
+    for (const auto& shard : plan) {
+        ASSERT_LE(shard.pairs.size(), 8u);
+        std::vector<std::string> pairs;
+        std::set<char> runs;
+        for (const auto i : shard.pairs) {
+            ++seen[i];
+            pairs.push_back(ids[i]);
+            runs.insert(ids[i][1]);
+        }
+        EXPECT_EQ(runs.size(), 1u) << "a shard never spans two runs (components)";
+        touched += submaps_of(pairs).size();
+    }
+    for (const int n : seen) EXPECT_EQ(n, 1) << "every pair in exactly one shard";
+    // Consecutive row order touches ~9 submaps per shard of 8; tiles ~6.
+    const auto rows = plan_shards(ids, 8, false);
+    std::size_t touched_rows = 0;
+    for (const auto& shard : rows) {
+        std::vector<std::string> pairs;
+        for (const auto i : shard.pairs) pairs.push_back(ids[i]);
+        touched_rows += submaps_of(pairs).size();
+    }
+    EXPECT_LT(static_cast<double>(touched) / plan.size(), 6.5);
+    EXPECT_GT(static_cast<double>(touched_rows) / rows.size(), 7.5);
+}
+
+TEST(ShardPlanner, SmallComponentsArePackedAndOneShardPerComponentWithoutASize) {
+    std::vector<std::string> ids = {"a|b", "c|d", "e|f", "g|h", "i|j"};  // five one-pair components
+    const auto plan = plan_shards(ids, 2);
+    ASSERT_EQ(plan.size(), 3u);
+    EXPECT_EQ(plan[0].pairs, (std::vector<std::size_t>{0, 1}));
+    EXPECT_EQ(plan[2].pairs, (std::vector<std::size_t>{4}));
+    EXPECT_EQ(plan_shards(complete_view(2, 4), 0).size(), 1u) << "0: everything in one shard";
+}
+
+// Workers run shards in simulated time (one slot each, a shard takes time per pair and per
+// submap the worker has not computed); returns feature computations / distinct submaps.
+double duplication(const std::vector<std::string>& ids, int n_workers, bool locality) {
+    SchedulerOptions options;
+    options.shard_size = 8;
+    options.locality = locality;
+    options.unserved_timeout_s = 0;
+    Scheduler s(options);
+    std::vector<std::set<std::string>> caches(static_cast<std::size_t>(n_workers));
+    auto name = [](std::size_t i) { return "w" + std::to_string(10 + i); };
+    auto beat = [&](double now) {
+        for (std::size_t i = 0; i < caches.size(); ++i) s.heartbeat(worker(name(i)), now);
+    };
+    JobSpec spec = job(0);
+    spec.pair_ids = ids;
+    s.submit("k", spec, "opt", 0);
+    std::map<double, std::pair<std::size_t, Assignment>> running;  // finish time -> (worker, task)
+    std::size_t computed = 0;
+    double now = 0;
+    for (int step = 0; step < 100000; ++step) {
+        beat(now);
+        for (auto& a : s.schedule(now)) {
+            const std::size_t w = std::stoul(a.worker_id.substr(1)) - 10;
+            double t = 0.03 * static_cast<double>(a.pair_ids.size());
+            for (const auto& sub : submaps_of(a.pair_ids)) {
+                if (caches[w].insert(sub).second) {
+                    ++computed;
+                    t += 0.25;
+                }
+            }
+            // Distinct finish times: ties broken by worker.
+            running.emplace(now + t + 1e-9 * static_cast<double>(w), std::make_pair(w, a));
+        }
+        if (running.empty()) break;
+        const auto [t, next] = *running.begin();
+        running.erase(running.begin());
+        now = t;
+        std::vector<store::PairRecord> results(next.second.pair_ids.size());
+        for (std::size_t k = 0; k < results.size(); ++k) results[k].pair_id = next.second.pair_ids[k];
+        if (s.complete(next.second.task_id, name(next.first), results, now)) break;
+    }
+    return static_cast<double>(computed) / static_cast<double>(submaps_of(ids).size());
+}
+
+TEST(Scheduler, WorkersKeepToTheirSubmaps) {
+    // 12 runs of 15 submaps (the lab's shape): with runs shared out whole, 4 workers compute
+    // almost every submap once; without locality each submap about four times.
+    const auto ids = complete_view(12, 15);
+    const double with = duplication(ids, 4, true);
+    const double without = duplication(ids, 4, false);
+    EXPECT_LE(with, 1.1);
+    EXPECT_GT(without, 2.5);
+    EXPECT_DOUBLE_EQ(duplication(ids, 1, true), 1.0);
 }
 
 }  // namespace
