@@ -241,8 +241,8 @@ if [ ! -s "$runs/demo/best_params.yaml" ]; then
 fi
 cat "$runs/demo/best_params.yaml"
 echo "trials.csv: $(wc -l < "$trials") lines (header + evaluations)"
-# trials.csv columns: evaluation,p,m,v,eps,failed,from_store,wall_s,origin,...
-awk -F, 'NR > 1 && $9 == "start" && !b { printf "baseline p = %s (evaluation %s, the start point)\n", $2, $1; b = 1 }
+# trials.csv columns: evaluation,p,m,v,eps,failed,from_store,wall_s,pair_s,origin,...
+awk -F, 'NR > 1 && $10 == "start" && !b { printf "baseline p = %s (evaluation %s, the start point)\n", $2, $1; b = 1 }
          NR > 1 && $6 == 0 && (best == "" || $2 + 0 > best + 0) { best = $2; e = $1 }
          END { if (best != "") printf "best p     = %s (evaluation %s)\n", best, e }' "$trials"
 [ -n "$watch_out" ] && { echo "watch (late subscriber):"; printf '%s\n' "$watch_out" | sed 's/^/    /'; }

@@ -23,7 +23,8 @@ std::string matcher_version(const matcher::MatcherSettings& s) {
     std::string text;
     for (const auto& kv : matcher::setting_texts(s)) text += kv + ";";
     // The prefix counts code changes that alter results (2: ICP convergence epsilons; 3: the
-    // version derived from the settings table instead of a hand-kept list).
+    // version derived from the settings table instead of a hand-kept list; 4: pair durations
+    // include both submaps' feature time, which run-time budgets compare).
     return std::string(kMatcherCodeRevision) + "-" + dataset::hex64(dataset::fnv1a(text)).substr(0, 8);
 }
 
@@ -78,7 +79,10 @@ std::optional<std::vector<store::PairRecord>> match_pair_ids(matcher::Matcher& m
         r.pair_id = pair_ids[i];
         r.matched = results[i].matched;
         r.T_a_b_est = results[i].T_a_b;
-        r.duration_s = results[i].duration_s;
+        // The pair's cost from the raw submaps (features of both + pair stage): what a robot
+        // pays to match them, the same whatever this worker had cached (docs/experiments.md,
+        // "Run time").
+        r.duration_s = results[i].duration_s + results[i].features_s;
         r.status = to_store_status(results[i].status);
         r.reason = results[i].reason;
         out.push_back(std::move(r));

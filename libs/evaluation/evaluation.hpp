@@ -20,7 +20,7 @@ namespace maptune::evaluation {
 inline constexpr const char* kMatcherId = "lru_matcher";
 // Counts code changes that alter the matcher's results: the part of a matcher version before
 // its '-'. A worker runs tasks carrying settings for any version of its own revision.
-inline constexpr const char* kMatcherCodeRevision = "3";
+inline constexpr const char* kMatcherCodeRevision = "4";
 
 // "<revision>-<fingerprint of every non-optimized setting>": part of the observation key, so
 // different settings (or code) never share an observation.

@@ -107,7 +107,7 @@ int baseline_row(const CompareResult& r) {
 
 std::string validation_csv(const CompareResult& r) {
     std::ostringstream out;
-    out << "set,target,dataset_id,view,reference,pairs,m_star,p,m,eps,e_t_median_m,e_r_median_deg,"
+    out << "set,target,dataset_id,view,reference,pairs,m_star,p,m,eps,e_t_median_m,e_r_median_deg,pair_s,"
            "delta_p_vs_baseline,from_store\n";
     const int base = baseline_row(r);
     for (std::size_t s = 0; s < r.set_names.size(); ++s) {
@@ -118,7 +118,7 @@ std::string validation_csv(const CompareResult& r) {
                 << dataset::to_string(col.target.view) << "," << dataset::to_string(col.target.reference) << ","
                 << col.pairs << "," << num(col.settings.m_star) << "," << num(rep.score.p) << "," << rep.score.m
                 << "," << num(rep.score.eps) << "," << (matched ? num(rep.e_t.median) : "") << ","
-                << (matched ? num(rep.e_r.median * 180.0 / M_PI) : "") << ",";
+                << (matched ? num(rep.e_r.median * 180.0 / M_PI) : "") << "," << num(rep.mean_pair_s) << ",";
             if (base >= 0) out << num(rep.score.p - col.cells[static_cast<std::size_t>(base)].report.score.p);
             out << "," << (col.cells[s].from_store ? 1 : 0) << "\n";
         }

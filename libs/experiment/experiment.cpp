@@ -223,12 +223,15 @@ Experiment load_experiment(const std::string& file) {
     if (root["measure"].IsDefined()) {
         const YamlPath p = top.child("measure");
         const YAML::Node n = root["measure"];
-        params::check_keys(n, p, {"e_star", "m_star", "w_v"});
+        params::check_keys(n, p, {"e_star", "m_star", "w_v", "max_pair_seconds"});
         if (n["e_star"].IsDefined()) e.e_star = read_range(n["e_star"], p.child("e_star"), 0.051, 1e6);
         if (n["m_star"].IsDefined() && !(n["m_star"].IsScalar() && n["m_star"].Scalar() == "auto")) {
             e.m_star = read_range(n["m_star"], p.child("m_star"), 1e-9, 1e9);
         }
         if (n["w_v"].IsDefined()) e.w_v = read_range(n["w_v"], p.child("w_v"), 0, 1);
+        if (n["max_pair_seconds"].IsDefined()) {
+            e.max_pair_seconds = read_range(n["max_pair_seconds"], p.child("max_pair_seconds"), 1e-6, 1e6);
+        }
     }
     if (root["budget"].IsDefined()) {
         const YamlPath p = top.child("budget");
@@ -339,6 +342,12 @@ Experiment load_experiment(const std::string& file) {
     if (root["validate"].IsDefined()) e.validate = read_validate_section(root["validate"], top.child("validate"), base);
     if (root["workers"].IsDefined()) e.workers = read_int(root["workers"], top.child("workers"), 1, 64);
     return e;
+}
+
+double objective(const Experiment& e, double p, double pair_s) {
+    if (e.max_pair_seconds <= 0 || pair_s <= e.max_pair_seconds) return p;
+    const double ratio = e.max_pair_seconds / pair_s;
+    return p * ratio * ratio;
 }
 
 std::vector<bo::ParameterSpec> search_space(const Experiment& e) {

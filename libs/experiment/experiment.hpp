@@ -48,6 +48,10 @@ struct Experiment {
     double e_star = 0.4;                     // [m]
     std::optional<double> m_star;            // empty = derived from the view's overlaps
     double w_v = 0.5;
+    // Run-time budget (measure.max_pair_seconds): the mean seconds per pair a set may take from
+    // the raw submaps; 0 = none. The optimizer maximizes objective() (p, penalized above the
+    // budget); p itself stays the thesis's.
+    double max_pair_seconds = 0;
     int max_evaluations = 30;
     double max_seconds = 0;                  // 0 = no time budget
     std::string acquisition = "log_ei";      // ucb | ucb_schedule | ei | log_ei
@@ -95,6 +99,11 @@ struct Experiment {
 
 // Whether objective value a is better than b in the experiment's direction.
 inline bool better(const Experiment& e, double a, double b) { return e.minimize ? a < b : a > b; }
+
+// What the optimizer maximizes for a set scoring p at a mean of `pair_s` seconds per pair:
+// p within the run-time budget, p·(budget / pair_s)² above it (a set twice as slow as
+// allowed keeps a quarter of its p). p when there is no budget or no time (pair_s 0).
+double objective(const Experiment& e, double p, double pair_s);
 
 // Loads and checks an experiment; paths inside are relative to the file's directory.
 // Throws params::ConfigError naming the file, line, key path and what was expected.

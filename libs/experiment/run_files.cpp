@@ -30,16 +30,20 @@ int baseline_index(const Experiment& e, const std::vector<EvaluationRecord>& rec
     return -1;
 }
 
+double record_objective(const Experiment& e, const EvaluationRecord& r) {
+    return r.failed ? r.p : objective(e, r.p, r.pair_s);
+}
+
 std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space) {
     std::ostringstream out;
-    out << "evaluation,p,m,v,eps,failed,from_store,wall_s,origin";
+    out << "evaluation,p,m,v,eps,failed,from_store,wall_s,pair_s,origin";
     for (const auto& s : space.specs()) out << "," << s.name;
     out << ",error\n";
     for (const auto& r : records) {
         out << r.number << "," << params::format_double(r.p) << "," << r.m << ","
             << params::format_double(r.v) << "," << params::format_double(r.eps) << ","
             << (r.failed ? 1 : 0) << "," << (r.from_store ? 1 : 0) << "," << params::format_fixed(r.wall_s, 3) << ","
-            << r.origin;
+            << params::format_double(r.pair_s) << "," << r.origin;
         for (const auto& s : space.specs()) {
             const auto v = r.params.find(s.name);
             out << "," << (v ? params::format_double(*v) : "");
@@ -58,7 +62,9 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
     std::string line;
     std::getline(in, line);
     const auto header = split_csv_line(line);
-    const std::size_t first_param = 9;
+    // Files written before the pair_s column (after wall_s) resume with pair_s 0.
+    const bool has_pair_s = header.size() > 8 && header[8] == "pair_s";
+    const std::size_t first_param = has_pair_s ? 10 : 9;
     if (header.size() != first_param + space.size() + 1) {
         throw params::ConfigError(file.string() + ":1: header does not match the design space; "
                                   "use another run directory");
@@ -88,7 +94,9 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
             r.failed = c[5] == "1";
             r.from_store = c[6] == "1";
             r.wall_s = number(c[7]);
-            r.origin = c[8];
+            if (has_pair_s) r.pair_s = number(c[8]);
+            if (r.pair_s < 0) throw std::invalid_argument(c[8]);
+            r.origin = c[first_param - 1];
             for (std::size_t i = 0; i < space.size(); ++i) {
                 r.params.set(space.specs()[i].name, number(c[first_param + i]));
             }

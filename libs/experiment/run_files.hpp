@@ -25,8 +25,14 @@ struct EvaluationRecord {
     double p = 0, v = 0, eps = 0;
     std::size_t m = 0;
     double wall_s = 0;
+    // Mean seconds per pair from the raw submaps (PairRecord::duration_s); 0 = not known
+    // (black-box objectives, trials.csv written before this column).
+    double pair_s = 0;
     std::string origin;              // "start", "initial", "model" (kept when a run resumes)
 };
+
+// What the optimizer was told for a record: experiment::objective of its p and pair_s.
+double record_objective(const Experiment& e, const EvaluationRecord& r);
 
 // The baseline of a run: the index in `records` of the successful evaluation of the
 // experiment's first start point, or -1 when there is none.

@@ -28,6 +28,7 @@ struct NeighbourLists {
     std::vector<int> row_count, col_count;  // entries kept per row of A / per row of B
     std::vector<int> row_index, col_index;  // [rows * k], [cols * k]
     std::vector<float> row_dot, col_dot;
+    double compute_s = 0;  // [s] what computing them took (kept with the cached lists)
     std::size_t bytes() const {
         return sizeof(*this) + (row_count.size() + col_count.size()) * sizeof(int) +
                (row_index.size() + col_index.size()) * (sizeof(int) + sizeof(float));

@@ -19,7 +19,9 @@ struct PairResult {
     bool matched = false;  // status == kOk
     Eigen::Matrix4d T_a_b =
         Eigen::Matrix4d::Identity();  // pose of b in a's frame; valid iff matched
-    double duration_s = 0.0;          // pair stage only (features come from the cache); wall clock
+    // Pair stage [s] (descriptor matching, grouping, RANSAC, ICP), wall clock; the descriptor
+    // matching's time counts even when its result came from the cache.
+    double duration_s = 0.0;
     MatchStatus status = MatchStatus::kFailed;
     std::string reason;  // empty for kOk
 
@@ -39,6 +41,9 @@ struct PairResult {
     double descriptor_s = 0.0;  // correspondence search
     double grouping_s = 0.0;    // Hough, collinearity, RANSAC
     double icp_s = 0.0;
+    // [s] computing both submaps' features (normals, keypoints, CSHOT, LRFs), as recorded when
+    // they were computed: with duration_s, what the pair costs from the raw submaps.
+    double features_s = 0.0;
 };
 
 }  // namespace maptune::matcher

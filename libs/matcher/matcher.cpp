@@ -204,8 +204,11 @@ std::shared_ptr<const NeighbourLists> Matcher::neighbours(const SubmapFeatures& 
                                                           const std::string& key_b) {
     if (cache_.options().max_neighbour_bytes == 0) return nullptr;
     return neighbour_cache_.get_or_compute(key_a + "||" + key_b, [&] {
-        return std::make_shared<const NeighbourLists>(
+        const auto t0 = std::chrono::steady_clock::now();
+        auto lists = std::make_shared<NeighbourLists>(
             nearest_descriptors(a.descriptors, b.descriptors, kNeighbourListLength));
+        lists->compute_s = seconds_since(t0);
+        return std::shared_ptr<const NeighbourLists>(std::move(lists));
     });
 }
 
@@ -310,19 +313,20 @@ std::vector<PairResult> Matcher::match_pairs(const std::vector<const dataset::Su
         const auto& fb = *feats[static_cast<std::size_t>(j)];
         // Step 7's GEMM depends only on the two submaps' features: cached per pair, so a new
         // set of pair-stage parameters (n_C, t_C, v_TF, n_TF) does not repeat it.
-        const auto t_lists = std::chrono::steady_clock::now();
         std::shared_ptr<const NeighbourLists> lists;
         if (fa.status == FeatureStatus::kOk && fb.status == FeatureStatus::kOk &&
             params.n_C <= kNeighbourListLength)
             lists = neighbours(fa, fb, keys[static_cast<std::size_t>(i)],
                                keys[static_cast<std::size_t>(j)]);
-        const double lists_s = seconds_since(t_lists);
+        // What computing them took, cached or not: a pair's time does not depend on the cache.
+        const double lists_s = lists ? lists->compute_s : 0.0;
         r = match_features(fa, fb, params, settings_, d,
                            pair_seed(settings_.seed, submaps[static_cast<std::size_t>(i)]->id,
                                      submaps[static_cast<std::size_t>(j)]->id),
                            lists.get());
         r.descriptor_s += lists_s;
         r.duration_s += lists_s;
+        r.features_s = fa.duration_s + fb.duration_s;
     });
 
     if (stats) {

@@ -107,7 +107,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     const experiment::RunRecord run = experiment::read_run_record(run_dir);
     const double m_star = run.m_star > 0 ? run.m_star : (e.m_star ? *e.m_star : 0.0);
     const measure::MeasureSettings settings{e.e_star, m_star, e.w_v};
-    out["measure"] = {{"e_star", e.e_star}, {"m_star", m_star}, {"w_v", e.w_v}};
+    out["measure"] = {{"e_star", e.e_star}, {"m_star", m_star}, {"w_v", e.w_v}, {"max_pair_seconds", e.max_pair_seconds}};
 
     const auto box = experiment::search_space(e);
     json space = json::array();
@@ -124,7 +124,8 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     std::vector<int> steps;  // every new best-so-far, and the baseline first
     for (std::size_t i = 0; i < trials.size(); ++i) {
         const auto& r = trials[i];
-        if (!r.failed && (best < 0 || experiment::better(e, r.p, trials[static_cast<std::size_t>(best)].p))) {
+        if (!r.failed && (best < 0 || experiment::better(e, experiment::record_objective(e, r),
+                                                         experiment::record_objective(e, trials[static_cast<std::size_t>(best)])))) {
             best = static_cast<int>(i);
             steps.push_back(best);
         }
@@ -138,6 +139,8 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
                                {"failed", r.failed},
                                {"from_store", r.from_store},
                                {"wall_s", r.wall_s},
+                               {"pair_s", r.pair_s},
+                               {"objective", experiment::record_objective(e, r)},
                                {"origin", r.origin},
                                {"best_so_far", best >= 0 ? json(trials[static_cast<std::size_t>(best)].p) : json(nullptr)},
                                {"params", params},
@@ -180,7 +183,8 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
                      {"p", r.p},
                      {"v_share", e.w_v * r.v},
                      {"eps_share", (1 - e.w_v) * r.eps},
-                     {"m", r.m}};
+                     {"m", r.m},
+                     {"pair_s", r.pair_s}};
         json errors = json::array();
         if (db && ds) {
             experiment::RunRecord on = run;
@@ -204,7 +208,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     std::vector<bo::Observation> history;
     std::size_t ok = 0;
     for (const auto& r : trials) {
-        history.push_back({experiment::optimizer_values(e, r.params), r.p, r.failed, r.error});
+        history.push_back({experiment::optimizer_values(e, r.params), experiment::record_objective(e, r), r.failed, r.error});
         ok += r.failed ? 0 : 1;
     }
     out["model"] = nullptr;

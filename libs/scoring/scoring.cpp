@@ -87,6 +87,13 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
         report.per_pair.push_back(ps);
     }
     report.matched = errors.size();
+    std::size_t timed = 0;
+    for (const auto& ps : report.per_pair) {
+        if (ps.reason == "no result stored for this pair") continue;
+        report.mean_pair_s += ps.duration_s;
+        ++timed;
+    }
+    if (timed > 0) report.mean_pair_s /= static_cast<double>(timed);
     report.score = measure::score(errors, settings);
     report.e_t = error_stats(e_t);
     report.e_r = error_stats(e_r);

@@ -45,6 +45,7 @@ struct ScoreReport {
     std::size_t pairs = 0, matched = 0, failed = 0, timeouts = 0;
     std::size_t missing = 0;  // pairs of the view without a result in the observation
     ErrorStats e_t, e_r;
+    double mean_pair_s = 0;  // [s] mean PairRecord::duration_s over the pairs with a result
     std::vector<PairScore> per_pair;
 };
 

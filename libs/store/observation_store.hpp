@@ -28,6 +28,8 @@ struct PairRecord {
     std::string pair_id;
     bool matched = false;
     Eigen::Matrix4d T_a_b_est = Eigen::Matrix4d::Identity();  // estimated pose of B in A
+    // [s] what the pair costs the matcher from the raw submaps, whatever was cached (reference
+    // matcher: both submaps' features + the pair stage).
     double duration_s = 0;
     PairStatus status = PairStatus::kOk;
     std::string reason;  // why FAILED/TIMEOUT; empty otherwise

@@ -50,6 +50,13 @@ void print_summary(const experiment::Experiment& e, const RunSummary& s, const f
     score_line("p", baseline ? baseline->p : 0, best.p, 4);
     score_line("m", baseline ? static_cast<double>(baseline->m) : 0, static_cast<double>(best.m), 0);
     score_line("eps", baseline ? baseline->eps : 0, best.eps, 4);
+    // Seconds per pair from the raw submaps (measure.max_pair_seconds budgets them).
+    if (best.pair_s > 0) score_line("s/pair", baseline ? baseline->pair_s : 0, best.pair_s, 3);
+    if (e.max_pair_seconds > 0) {
+        std::cout << "run-time budget " << params::format_double(e.max_pair_seconds)
+                  << " s per pair: best by p·min(1, budget/t)² = "
+                  << params::format_fixed(experiment::record_objective(e, best), 4) << "\n";
+    }
     std::cout << "\nbest found at evaluation " << best.number << "; written to "
               << (run_dir / "best_params.yaml").string() << " and best_params.ros2.yaml\n";
 }

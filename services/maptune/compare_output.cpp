@@ -26,7 +26,7 @@ Table compare_table(const evaluation::CompareResult& r, int baseline_row) {
     t.numeric.push_back(false);
     for (const auto& col : r.columns) {
         const std::string& l = col.target.label;
-        for (const char* c : {" p", " m", " eps", " e_t med [m]", " e_r med [deg]"}) {
+        for (const char* c : {" p", " m", " eps", " e_t med [m]", " e_r med [deg]", " s/pair"}) {
             t.columns.push_back(l + c);
             t.numeric.push_back(true);
             if (baseline_row >= 0 && std::string(c) == " p") {
@@ -53,6 +53,7 @@ Table compare_table(const evaluation::CompareResult& r, int baseline_row) {
             row.push_back(params::format_fixed(rep.score.eps, 3));
             row.push_back(fixed_or_dash(rep.e_t.median, 3, matched));
             row.push_back(fixed_or_dash(rep.e_r.median * 180.0 / M_PI, 2, matched));
+            row.push_back(params::format_fixed(rep.mean_pair_s, 3));
             if (!col.reference_column.empty()) {
                 const auto& ref = col.cells[s].reference_p;
                 row.push_back(ref ? params::format_fixed(*ref, 2) : "");
@@ -66,7 +67,7 @@ Table compare_table(const evaluation::CompareResult& r, int baseline_row) {
         std::vector<std::string> row{"kendall_tau"};
         for (const auto& col : r.columns) {
             row.push_back(tau_text(col.tau));
-            for (int i = 0; i < (baseline_row >= 0 ? 5 : 4); ++i) row.push_back("");
+            for (int i = 0; i < (baseline_row >= 0 ? 6 : 5); ++i) row.push_back("");
             if (!col.reference_column.empty()) row.push_back("");
         }
         t.rows.push_back(std::move(row));

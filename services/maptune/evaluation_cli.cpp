@@ -72,6 +72,7 @@ nlohmann::json report_json(const scoring::ScoreReport& r, double wall_seconds, b
                         {"w_v", r.settings.w_v},
                         {"e_t", stats(r.e_t)},
                         {"e_r", stats(r.e_r)},
+                        {"mean_pair_s", r.mean_pair_s},
                         {"wall_seconds", wall_seconds}};
     if (per_pair) {
         nlohmann::json arr = nlohmann::json::array();

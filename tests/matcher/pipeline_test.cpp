@@ -129,6 +129,20 @@ TEST_F(ScenePair, NeighbourListsReusedForNewPairStageParametersWithTheSameResult
     EXPECT_TRUE(reused.T_a_b.isApprox(direct.T_a_b, 1e-9));
 }
 
+TEST_F(ScenePair, APairsTimeDoesNotDependOnWhatWasCached) {
+    // Issue 16: run-time budgets compare a pair's seconds from the raw submaps; a worker that
+    // had the features and descriptor lists cached must report the same costs.
+    std::vector<const dataset::Submap*> submaps{a_, b_};
+    MatcherParams p;
+    Matcher m(fast_settings());
+    const auto cold = m.match_pairs(submaps, {{0, 1}}, p).front();
+    const auto warm = m.match_pairs(submaps, {{0, 1}}, p).front();
+    EXPECT_GT(cold.features_s, 0.0);
+    EXPECT_EQ(warm.features_s, cold.features_s) << "both submaps' feature times, as recorded";
+    EXPECT_GE(warm.descriptor_s, cold.descriptor_s * 0.5) << "the cached lists' computing time counts";
+    EXPECT_GT(warm.duration_s + warm.features_s, 0.5 * (cold.duration_s + cold.features_s));
+}
+
 TEST_F(ScenePair, CacheEvictsByEntriesAndBytes) {
     FeatureCacheOptions opt;
     opt.max_entries = 1;

@@ -294,3 +294,87 @@ TEST_F(TuningRunTest, AResumedRunProposesWhatTheUninterruptedRunProposed) {
 
 }  // namespace
 }  // namespace maptune
+
+namespace maptune {
+namespace {
+
+// Issue 16: a run-time budget. Replies with `seconds` per pair.
+tuning::Reply timed_answer(const tuning::Request& r, int matched, double seconds) {
+    tuning::Reply reply;
+    reply.request_id = r.id;
+    reply.params = r.params;
+    for (int i = 0; i < 5; ++i) {
+        store::PairRecord p;
+        p.pair_id = "a|" + std::to_string(i);
+        p.matched = i < matched;
+        p.duration_s = seconds;
+        reply.pairs.push_back(p);
+    }
+    return reply;
+}
+
+TEST_F(TuningRunTest, WithARunTimeBudgetTheBestIsTheBestWithinIt) {
+    for (const bool budget : {false, true}) {
+        auto e = load("budget: {evaluations: 5}\n");
+        e.max_pair_seconds = budget ? 0.5 : 0;  // parsing: ARunTimeBudgetIsReadAndABadOneNamesTheKey
+        auto run = make(e, "x");
+        // 4 matches at 2 s per pair (4x over), then 3 matches at 0.4 s per pair.
+        const auto slow = run.ask(1, 0.0).at(0);
+        ASSERT_EQ(run.tell(timed_answer(slow, 4, 2.0), 1.0), ReplyOutcome::kAccepted);
+        const auto fast = run.ask(1, 0.0).at(0);
+        ASSERT_EQ(run.tell(timed_answer(fast, 3, 0.4), 1.0), ReplyOutcome::kAccepted);
+        const auto& s = run.summary();
+        EXPECT_DOUBLE_EQ(s.evaluations[0].pair_s, 2.0);
+        EXPECT_GT(s.evaluations[0].p, s.evaluations[1].p) << "p itself is the thesis's, untouched";
+        EXPECT_EQ(s.best, budget ? 1 : 0);
+        EXPECT_DOUBLE_EQ(experiment::record_objective(e, s.evaluations[0]),
+                         budget ? s.evaluations[0].p / 16 : s.evaluations[0].p);
+        EXPECT_DOUBLE_EQ(experiment::record_objective(e, s.evaluations[1]), s.evaluations[1].p);
+        // The seconds per pair survive the run directory, and so does the best on resume.
+        tuning::RunDirectory files(dir_ / (budget ? "b" : "n"), e, {"core", "d", "dn", "m", "v", "now"});
+        files.write_results(s);
+        const auto trials = experiment::read_trials_csv(files.trials_file(), e.space);
+        ASSERT_EQ(trials.size(), 2u);
+        EXPECT_DOUBLE_EQ(trials[0].pair_s, 2.0);
+        auto resumed = make(e, "y");
+        resumed.resume(trials);
+        EXPECT_EQ(resumed.summary().best, budget ? 1 : 0);
+    }
+}
+
+TEST_F(TuningRunTest, TrialsWrittenBeforeThePairSecondsColumnResume) {
+    auto e = load();
+    std::string header = "evaluation,p,m,v,eps,failed,from_store,wall_s,origin";
+    std::string row = "1,0.7,3,0.8,0.6,0,0,1.5,start";
+    for (const auto& spec : e.space.specs()) {
+        header += "," + spec.name;
+        row += "," + params::format_double(e.start_points[0].get(spec.name));
+    }
+    std::ofstream(dir_ / "old.csv") << header << ",error\n" << row << ",\n";
+    const auto trials = experiment::read_trials_csv(dir_ / "old.csv", e.space);
+    ASSERT_EQ(trials.size(), 1u);
+    EXPECT_EQ(trials[0].origin, "start");
+    EXPECT_DOUBLE_EQ(trials[0].pair_s, 0.0);
+    EXPECT_DOUBLE_EQ(trials[0].p, 0.7);
+}
+
+TEST_F(TuningRunTest, ARunTimeBudgetIsReadAndABadOneNamesTheKey) {
+    auto write = [&](const std::string& budget) {
+        std::ofstream(dir_ / "t.yaml") << "name: t\nspace: " << kSource << "/configs/spaces/lru_matcher.yaml\n"
+                                       << "dataset: " << (dir_ / "none").string()
+                                       << "\nmeasure: {m_star: 4, max_pair_seconds: " << budget << "}\n";
+        return (dir_ / "t.yaml").string();
+    };
+    EXPECT_DOUBLE_EQ(experiment::load_experiment(write("0.25")).max_pair_seconds, 0.25);
+    for (const char* bad : {"-1", "0", "nan", "fast"}) {
+        try {
+            experiment::load_experiment(write(bad));
+            ADD_FAILURE() << "accepted max_pair_seconds " << bad;
+        } catch (const params::ConfigError& err) {
+            EXPECT_NE(std::string(err.what()).find("max_pair_seconds"), std::string::npos) << err.what();
+        }
+    }
+}
+
+}  // namespace
+}  // namespace maptune

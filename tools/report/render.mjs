@@ -328,6 +328,15 @@ function importanceFigure(run) {
 
 // ---- tables ----------------------------------------------------------------------------
 
+// ", 0.213 s per pair" from the raw submaps (within/over the run-time budget), when measured.
+function pairTime(run, evaluation) {
+  const e = run.evaluations.find((x) => x.evaluation === evaluation);
+  if (!e || !e.pair_s) return '';
+  const budget = run.measure?.max_pair_seconds;
+  const note = budget ? (e.pair_s <= budget ? ` (budget ${budget} s)` : ` — over the ${budget} s budget`) : '';
+  return `, ${fmt(e.pair_s, 3)} s per pair${note}`;
+}
+
 function metadataTable(run) {
   const r = run.record || {};
   const v = valueName(run);
@@ -337,28 +346,28 @@ function metadataTable(run) {
   ] : [
     ['experiment', `${r.experiment ?? ''} (${r.experiment_file ?? ''})`],
     ['dataset', `${r.dataset?.name ?? ''} ${r.dataset?.id ?? ''} — ${r.dataset?.view ?? ''}/${r.dataset?.reference ?? ''} (${r.dataset?.dir ?? ''})`],
-    ['measure', `e* ${run.measure.e_star}, m* ${fmt(run.measure.m_star, 1)} (${r.measure?.m_star_rule ?? ''}), w_v ${run.measure.w_v}`],
+    ['measure', `e* ${run.measure.e_star}, m* ${fmt(run.measure.m_star, 1)} (${r.measure?.m_star_rule ?? ''}), w_v ${run.measure.w_v}${run.measure.max_pair_seconds ? `; run-time budget ${run.measure.max_pair_seconds} s per pair: p·(budget/t)² above it` : ''}`],
     ['matcher', `${r.matcher?.id ?? ''} ${r.matcher?.version ?? ''}`],
   ];
   rows.push(
     ['optimizer', `${r.optimizer?.acquisition ?? ''}, seed ${r.optimizer?.seed ?? ''}, optimizing ${(r.optimizer?.optimize ?? []).join(', ')}`],
     ['budget', `${r.budget?.evaluations ?? ''} evaluations${r.budget?.seconds ? `, ${r.budget.seconds} s` : ''}`],
     ['ran', `${r.started_utc ?? ''} → ${r.finished_utc ?? '(running)'}, ${r.wall_s ?? '?'} s, ${run.evaluations.length} evaluations, ${r.stop_reason ?? r.state ?? ''}`],
-    ['best', run.best !== null ? `${v} ${fmt(run.evaluations.find((e) => e.evaluation === run.best)?.p, 4)} at evaluation ${run.best}` : 'none'],
-    ['baseline', run.baseline !== null ? `${v} ${fmt(baselineP(run), 4)} at evaluation ${run.baseline}` : 'no start point evaluated'],
+    ['best', run.best !== null ? `${v} ${fmt(run.evaluations.find((e) => e.evaluation === run.best)?.p, 4)} at evaluation ${run.best}${pairTime(run, run.best)}` : 'none'],
+    ['baseline', run.baseline !== null ? `${v} ${fmt(baselineP(run), 4)} at evaluation ${run.baseline}${pairTime(run, run.baseline)}` : 'no start point evaluated'],
   );
   return `<table class="meta">${rows.map(([k, v]) => `<tr><th>${esc(k)}</th><td>${esc(v)}</td></tr>`).join('')}</table>`;
 }
 
 function validationTable(run) {
   if (!run.validation.length) return '<p class="note">No validation yet (an experiment with a <code>validate:</code> section, or <code>maptune validate --run-dir</code>).</p>';
-  const head = ['set', 'target', 'view', 'pairs', 'm*', 'p', 'p − baseline', 'm', 'eps', 'e_t med [m]', 'e_r med [deg]'];
+  const head = ['set', 'target', 'view', 'pairs', 'm*', 'p', 'p − baseline', 'm', 'eps', 'e_t med [m]', 'e_r med [deg]', 's per pair'];
   const rows = run.validation.map((v) => {
     const d = v.delta_p_vs_baseline;
     const cls = d === null || d === undefined || v.set === 'baseline' || Math.abs(d) < 5e-4 ? '' : d > 0 ? 'up' : 'down';
     return `<tr><td>${esc(v.set)}</td><td>${esc(v.target)}</td><td>${esc(`${v.view}/${v.reference}`)}</td><td>${v.pairs}</td>` +
       `<td>${fmt(v.m_star, 1)}</td><td>${fmt(v.p)}</td><td class="${cls}">${v.set === 'baseline' || d === null ? '' : signed(d)}</td>` +
-      `<td>${v.m}</td><td>${fmt(v.eps)}</td><td>${fmt(v.e_t_median_m)}</td><td>${fmt(v.e_r_median_deg, 2)}</td></tr>`;
+      `<td>${v.m}</td><td>${fmt(v.eps)}</td><td>${fmt(v.e_t_median_m)}</td><td>${fmt(v.e_r_median_deg, 2)}</td><td>${fmt(v.pair_s)}</td></tr>`;
   });
   return `<table class="validation"><tr>${head.map((h) => `<th>${esc(h)}</th>`).join('')}</tr>${rows.join('')}</table>`;
 }
