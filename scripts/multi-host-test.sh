@@ -42,13 +42,17 @@ ADDR=("${NET%.0}.1" "${NET%.0}.2" "${NET%.0}.3")
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/maptune-multihost-XXXXXX")
 PIDS=()
 
-cleanup() {
+stop_all() {  # SIGTERM (each service deletes its participant), SIGKILL after 5 s
   for p in "${PIDS[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
   for p in "${PIDS[@]}"; do
     for _ in $(seq 100); do kill -0 "$p" 2>/dev/null || break; sleep 0.05; done
     kill -KILL "$p" 2>/dev/null || true
     wait "$p" 2>/dev/null || true
   done
+  PIDS=()
+}
+cleanup() {
+  stop_all
   for ns in "${HOSTS[@]}" "$SW"; do ip netns del "$ns" 2>/dev/null || true; done
   if [ "$KEEP" = 1 ]; then echo "multi-host-test: work directory kept: $WORK"; else rm -rf "$WORK"; fi
 }
@@ -151,17 +155,11 @@ run_once() {  # run_once NAME PROFILE [DISCOVERY_SERVER]
   [ -f "$dir/run/trials.csv" ] && rows=$(( $(wc -l <"$dir/run/trials.csv") - 1 ))
   local failed
   failed=$(awk -F, 'NR > 1 && $6 == 1' "$dir/run/trials.csv" 2>/dev/null | wc -l)
-  for p in "${PIDS[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
-  for p in "${PIDS[@]}"; do
-    for _ in $(seq 100); do kill -0 "$p" 2>/dev/null || break; sleep 0.05; done
-    kill -KILL "$p" 2>/dev/null || true
-    wait "$p" 2>/dev/null || true
-  done
+  stop_all
   # Both workers ran tasks, so submaps crossed the bridge from h1 to both other hosts.
   local tasks_h2 tasks_h3
   tasks_h2=$(grep -o 'stopping after [0-9]* tasks' "$dir/worker_h2.log" | grep -o '[0-9]*' || echo 0)
   tasks_h3=$(grep -o 'stopping after [0-9]* tasks' "$dir/worker_h3.log" | grep -o '[0-9]*' || echo 0)
-  PIDS=()
   echo "multi-host-test: $name: $rows of $EVALS evaluations ($failed failed) in $((SECONDS - t0)) s;" \
        "tasks on h2 ${tasks_h2:-0}, on h3 ${tasks_h3:-0}; domain $d"
   if [ "$status" != 0 ] || [ "$rows" != "$EVALS" ] || [ "$failed" != 0 ] || [ "${tasks_h2:-0}" = 0 ] || [ "${tasks_h3:-0}" = 0 ]; then

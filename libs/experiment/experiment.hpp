@@ -72,6 +72,10 @@ struct Experiment {
     std::string matcher_id = "lru_matcher";
     // Non-optimized matcher settings (lru_matcher only).
     int matcher_threads = 0;                 // 0 = hardware concurrency
+    // Per worker: memory for computed features (matcher.feature_cache_mb); not part of the
+    // matcher version. A view whose features do not fit recomputes them for every evaluation
+    // (the full moon preset's 1 600 submaps do not fit in 4 GiB; 10 GiB does).
+    int feature_cache_mb = 4096;
     // matcher.settings: non-optimized matcher settings KEY: VALUE (docs/matcher.md, as
     // `--matcher KEY=VALUE`); part of the matcher version. `where` names file, line and key.
     struct MatcherSetting {

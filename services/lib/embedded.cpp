@@ -145,7 +145,9 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
             if (!reference) {
                 backends.push_back(std::make_unique<AnalyticBackend>(*mirrors.back(), e.space));
             } else {
-                backends.push_back(std::make_unique<LruBackend>(*mirrors.back(), e.space, settings));
+                matcher::FeatureCacheOptions cache;
+                cache.max_bytes = static_cast<std::size_t>(e.feature_cache_mb) << 20;
+                backends.push_back(std::make_unique<LruBackend>(*mirrors.back(), e.space, settings, cache));
             }
             workers.push_back(std::make_unique<MatcherWorker>(*worker_ps.back(), *backends.back(),
                                                               WorkerOptions{"", 1, 0.5}));

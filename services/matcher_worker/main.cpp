@@ -31,6 +31,11 @@ int main(int argc, char** argv) {
     double submap_cache_mb = static_cast<double>(LruBackend::kDefaultSubmapCacheBytes >> 20);
     app.add_option("--submap-cache-mb", submap_cache_mb, "loaded submaps kept in memory, MB (default: 1024)")
         ->check(maptune::params::finite_range(1.0, 1e7));
+    double feature_cache_mb = 4096;
+    app.add_option("--feature-cache-mb", feature_cache_mb,
+                   "computed features kept in memory, MB (default: 4096; a view whose features do not fit "
+                   "recomputes them for every evaluation)")
+        ->check(maptune::params::finite_range(64.0, 1e7));
     std::string experiment_file;
     std::vector<std::string> overrides;
     app.add_option("--experiment", experiment_file,
@@ -64,7 +69,9 @@ int main(int argc, char** argv) {
         if (analytic) {
             backend = std::make_unique<AnalyticBackend>(mirror, space, analytic_options);
         } else {
-            backend = std::make_unique<LruBackend>(mirror, space, settings, maptune::matcher::FeatureCacheOptions{},
+            maptune::matcher::FeatureCacheOptions feature_cache;
+            feature_cache.max_bytes = static_cast<std::size_t>(feature_cache_mb * 1024 * 1024);
+            backend = std::make_unique<LruBackend>(mirror, space, settings, feature_cache,
                                                    static_cast<std::size_t>(submap_cache_mb * 1024 * 1024));
         }
         MatcherWorker worker(participant, *backend, options);

@@ -47,7 +47,8 @@ protected:
         return s;
     }
 
-    static tuning::Reply answer(const tuning::Request& r, int matched) {
+    // Five pairs, the first `matched` of them matched, each taking `seconds`.
+    static tuning::Reply answer(const tuning::Request& r, int matched, double seconds = 0) {
         tuning::Reply reply;
         reply.request_id = r.id;
         reply.params = r.params;
@@ -55,6 +56,7 @@ protected:
             store::PairRecord p;
             p.pair_id = "a|" + std::to_string(i);
             p.matched = i < matched;
+            p.duration_s = seconds;
             reply.pairs.push_back(p);
         }
         return reply;
@@ -298,21 +300,6 @@ TEST_F(TuningRunTest, AResumedRunProposesWhatTheUninterruptedRunProposed) {
 namespace maptune {
 namespace {
 
-// Issue 16: a run-time budget. Replies with `seconds` per pair.
-tuning::Reply timed_answer(const tuning::Request& r, int matched, double seconds) {
-    tuning::Reply reply;
-    reply.request_id = r.id;
-    reply.params = r.params;
-    for (int i = 0; i < 5; ++i) {
-        store::PairRecord p;
-        p.pair_id = "a|" + std::to_string(i);
-        p.matched = i < matched;
-        p.duration_s = seconds;
-        reply.pairs.push_back(p);
-    }
-    return reply;
-}
-
 TEST_F(TuningRunTest, WithARunTimeBudgetTheBestIsTheBestWithinIt) {
     for (const bool budget : {false, true}) {
         auto e = load("budget: {evaluations: 5}\n");
@@ -320,9 +307,9 @@ TEST_F(TuningRunTest, WithARunTimeBudgetTheBestIsTheBestWithinIt) {
         auto run = make(e, "x");
         // 4 matches at 2 s per pair (4x over), then 3 matches at 0.4 s per pair.
         const auto slow = run.ask(1, 0.0).at(0);
-        ASSERT_EQ(run.tell(timed_answer(slow, 4, 2.0), 1.0), ReplyOutcome::kAccepted);
+        ASSERT_EQ(run.tell(answer(slow, 4, 2.0), 1.0), ReplyOutcome::kAccepted);
         const auto fast = run.ask(1, 0.0).at(0);
-        ASSERT_EQ(run.tell(timed_answer(fast, 3, 0.4), 1.0), ReplyOutcome::kAccepted);
+        ASSERT_EQ(run.tell(answer(fast, 3, 0.4), 1.0), ReplyOutcome::kAccepted);
         const auto& s = run.summary();
         EXPECT_DOUBLE_EQ(s.evaluations[0].pair_s, 2.0);
         EXPECT_GT(s.evaluations[0].p, s.evaluations[1].p) << "p itself is the thesis's, untouched";
