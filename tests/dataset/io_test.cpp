@@ -132,6 +132,8 @@ TEST_F(IoTest, PcdHostileHeadersAreErrors) {
              {"SIZE 4 4 1073741824\nTYPE F F F\nCOUNT 1 1 1\n", "SIZE 1073741824"},
              {"SIZE 4 4 4\nTYPE F F Q\nCOUNT 1 1 1\n", "TYPE Q"},
              {"SIZE 4 4 2\nTYPE F F F\nCOUNT 1 1 1\n", "a float of SIZE 2"},
+             {"SIZE 4 4 4\nTYPE F U F\nCOUNT 1 1 1\n", "TYPE U: coordinates must be floats"},
+             {"SIZE 4 4 4\nTYPE I F F\nCOUNT 1 1 1\n", "TYPE I: coordinates must be floats"},
          }) {
         put(dir_ / "h.pcd", head + c.header + tail);
         const std::string e = error_of([&] { read_cloud(dir_ / "h.pcd"); });
