@@ -100,6 +100,7 @@ std::string import_dataset(const ImportInput& in, const ImportOptions& o, const 
     ReadOptions ro;
     ro.drop_nan = o.drop_nan;
     for (std::size_t i = 0; i < in.clouds.size(); ++i) {
+        if (o.interrupted && o.interrupted()) throw DatasetError(out, "interrupted: nothing written");
         Submap s;
         s.cloud = voxel_filter(read_cloud(in.clouds[i], ro), static_cast<float>(o.voxel_m));
         if (!in.obstacles.empty()) {

@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -36,6 +37,9 @@ struct ImportOptions {
     bool drop_nan = false;
     bool overwrite = false;
     std::map<std::string, std::string> meta;
+    // Asked before each cloud; true ends the import with DatasetError ("interrupted") and the
+    // temporary directory is removed (SIGINT/SIGTERM in `maptune dataset import`).
+    std::function<bool()> interrupted;
 };
 
 // Reads a TUM pose file for `clouds`; throws DatasetError naming the pose file when the

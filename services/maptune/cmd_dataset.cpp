@@ -22,6 +22,13 @@ namespace ds = maptune::dataset;
 
 namespace {
 
+// Set by SIGINT/SIGTERM while generate or import writes a dataset.
+std::atomic<bool> g_interrupted{false};
+void catch_interrupts() {
+    std::signal(SIGINT, [](int) { g_interrupted = true; });
+    std::signal(SIGTERM, [](int) { g_interrupted = true; });
+}
+
 // Runs `body`, mapping bad input to exit code 2 and other failures to 1.
 template <typename F>
 void guarded(int& exit_code, F&& body) {
@@ -125,11 +132,9 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
             const auto t0 = std::chrono::steady_clock::now();
             // SIGINT/SIGTERM end the generation after the runs in progress, and the half-written
             // temporary directory is removed (the default action left <out>.tmp-PID-N behind).
-            static std::atomic<bool> interrupted{false};
-            std::signal(SIGINT, [](int) { interrupted = true; });
-            std::signal(SIGTERM, [](int) { interrupted = true; });
+            catch_interrupts();
             const std::string id = ds::generate_dataset(c, g->out, g->force, [](const ds::GenerateProgress& p) {
-                if (interrupted) throw std::runtime_error("interrupted: nothing written");
+                if (g_interrupted) throw std::runtime_error("interrupted: nothing written");
                 std::cerr << "\rruns " << p.runs_done << "/" << p.runs_total << std::flush;
             });
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -251,6 +256,9 @@ void add_dataset_command(CLI::App& app, int& exit_code) {
             if (im->curv_radius > 0) o.curvature_radius_m = im->curv_radius;
             o.drop_nan = im->drop_nan;
             o.overwrite = im->force;
+            // As generate: an interrupted import stops before the next cloud and leaves nothing.
+            catch_interrupts();
+            o.interrupted = [] { return g_interrupted.load(); };
             const std::string id = ds::import_dataset(input, o, im->out);
             // Only after the import succeeded: a failed import leaves no half of its outputs.
             if (!im->write_tum.empty()) ds::write_file(im->write_tum, ds::format_tum(input.poses));

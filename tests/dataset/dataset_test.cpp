@@ -437,6 +437,17 @@ TEST(ImportTest, CloudsAndTumPosesToDataset) {
     EXPECT_FALSE(fs::exists(out2));
     input.clouds[2] = in / "gone.ply";
     EXPECT_NE(error_of([&] { import_dataset(input, o, out2); }).find("gone.ply: missing"), std::string::npos);
+    // Issue 14: an interrupted import (SIGINT in `dataset import`) leaves neither the dataset
+    // nor its temporary directory.
+    put(in / "c1.pcd", format_pcd_xyzrgb(src.load_submap(0, 1).cloud));
+    input.clouds[2] = in / "c2.pcd";
+    int asked = 0;
+    o.interrupted = [&] { return ++asked > 1; };
+    EXPECT_NE(error_of([&] { import_dataset(input, o, out2); }).find("interrupted: nothing written"), std::string::npos);
+    EXPECT_EQ(asked, 2) << "asked before each cloud, stopped before the second";
+    for (const auto& entry : fs::directory_iterator(temp_root())) {
+        EXPECT_EQ(entry.path().filename().string().find("imported_bad"), std::string::npos) << entry.path();
+    }
 }
 
 TEST(ImportTest, StanfordBunnyRealScans) {
