@@ -310,17 +310,14 @@ std::vector<ColoredPoint> read_pcd(const fs::path& file, const ReadOptions& opti
         record += f.size * f.count;
     }
     for (const int i : {ix, iy, iz}) {
+        const auto& f = fields[static_cast<std::size_t>(i)];
         // Coordinates are metres as floats; an integer TYPE would read float data as integers
         // and give a silently wrong cloud.
-        if (fields[static_cast<std::size_t>(i)].type != 'F') {
-            throw DatasetError(file, "PCD field " + fields[static_cast<std::size_t>(i)].name + ": TYPE " +
-                                         std::string(1, fields[static_cast<std::size_t>(i)].type) +
+        if (f.type != 'F') {
+            throw DatasetError(file, "PCD field " + f.name + ": TYPE " + std::string(1, f.type) +
                                          ": coordinates must be floats (TYPE F)");
         }
-        if (fields[static_cast<std::size_t>(i)].type == 'F' && fields[static_cast<std::size_t>(i)].size < 4) {
-            throw DatasetError(file, "PCD field " + fields[static_cast<std::size_t>(i)].name + ": a float of SIZE " +
-                                         std::to_string(fields[static_cast<std::size_t>(i)].size));
-        }
+        if (f.size < 4) throw DatasetError(file, "PCD field " + f.name + ": a float of SIZE " + std::to_string(f.size));
     }
     if (irgb >= 0 && fields[static_cast<std::size_t>(irgb)].size != 4) {
         throw DatasetError(file, "PCD field " + fields[static_cast<std::size_t>(irgb)].name + ": SIZE must be 4");

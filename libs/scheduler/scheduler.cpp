@@ -167,15 +167,22 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
     for (const auto& key : job_order_) {
         const Job& job = jobs_.at(key);
         if (job.queued.empty() || !compatible(w, job.spec, now)) continue;
+        if (!options_.locality) return job.queued.front();
         const auto held_it = w.held.find(job.spec.dataset_id);
         const std::vector<char>* held = held_it == w.held.end() ? nullptr : &held_it->second;
         const std::vector<int>& holders = submaps_.at(job.spec.dataset_id).holders;
-        if (!options_.locality) return job.queued.front();
-        std::map<int, std::size_t> queued_pairs;  // per component: work a newcomer could share
-        for (const auto& task : job.queued) {
-            const Shard& shard = shards_.at(task);
-            queued_pairs[shard.component] += shard.pairs.size();
-        }
+        // Per component: queued work a newcomer could share; counted only when some shard
+        // would make `w` join other workers (most picks end at a shard needing nothing new).
+        std::map<int, std::size_t> queued_pairs;
+        auto queued_in = [&](int component) {
+            if (queued_pairs.empty()) {
+                for (const auto& task : job.queued) {
+                    const Shard& s = shards_.at(task);
+                    queued_pairs[s.component] += s.pairs.size();
+                }
+            }
+            return queued_pairs[component];
+        };
         // Costs per pair of the shard (a small tail shard is not cheaper per unit of work).
         std::string best;
         bool best_shared = false;
@@ -199,7 +206,7 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
             std::size_t left = 0;
             if (shared) {
                 const auto& there = job.component_workers.at(shard.component);
-                left = queued_pairs[shard.component] / there.size();
+                left = queued_in(shard.component) / there.size();
             }
             const std::size_t pairs = std::max<std::size_t>(1, shard.pairs.size());
             const auto a = fresh * best_pairs, b = best_new * pairs;

@@ -73,6 +73,7 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
         ps.status = r.status;
         ps.reason = r.reason;
         ps.duration_s = r.duration_s;
+        report.mean_pair_s += r.duration_s;  // a sum until the end
         report.failed += r.status == store::PairStatus::kFailed ? 1 : 0;
         report.timeouts += r.status == store::PairStatus::kTimeout ? 1 : 0;
         if (r.matched) {
@@ -87,12 +88,7 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
         report.per_pair.push_back(ps);
     }
     report.matched = errors.size();
-    std::size_t timed = 0;
-    for (const auto& ps : report.per_pair) {
-        if (ps.reason == "no result stored for this pair") continue;
-        report.mean_pair_s += ps.duration_s;
-        ++timed;
-    }
+    const std::size_t timed = report.per_pair.size() - report.missing;
     if (timed > 0) report.mean_pair_s /= static_cast<double>(timed);
     report.score = measure::score(errors, settings);
     report.e_t = error_stats(e_t);

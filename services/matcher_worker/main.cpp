@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
     double submap_cache_mb = static_cast<double>(LruBackend::kDefaultSubmapCacheBytes >> 20);
     app.add_option("--submap-cache-mb", submap_cache_mb, "loaded submaps kept in memory, MB (default: 1024)")
         ->check(maptune::params::finite_range(1.0, 1e7));
-    double feature_cache_mb = 4096;
+    double feature_cache_mb = static_cast<double>(maptune::matcher::FeatureCacheOptions{}.max_bytes >> 20);
     app.add_option("--feature-cache-mb", feature_cache_mb,
                    "computed features kept in memory, MB (default: 4096; a view whose features do not fit "
                    "recomputes them for every evaluation)")
