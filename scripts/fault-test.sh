@@ -174,7 +174,7 @@ def trials(d):
     with open(d + "/run/trials.csv") as f:
         rows = list(csv.DictReader(f))
     # What the model was told: the set, its score and failure; not timing or store hits.
-    return [{k: v for k, v in r.items() if k not in ("from_store", "wall_s", "pair_s")} for r in rows]
+    return [{k: v for k, v in r.items() if k not in ("from_store", "wall_s", "pair_s", "elapsed_s")} for r in rows]
 
 def store(d):
     with open(d + "/store.csv") as f:

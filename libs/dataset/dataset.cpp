@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "dataset/geometry.hpp"
@@ -28,6 +30,107 @@ Reference parse_reference(const std::string& s) {
 }
 const char* to_string(View v) { return v == View::complete ? "complete" : "subsequent"; }
 const char* to_string(Reference r) { return r == Reference::gt ? "gt" : "odometry"; }
+
+std::string ViewSpec::str() const {
+    return subset > 1 ? std::string(to_string(view)) + "/" + std::to_string(subset) : to_string(view);
+}
+
+ViewSpec parse_view_spec(const std::string& s) {
+    const auto slash = s.find('/');
+    ViewSpec spec;
+    spec.view = parse_view(s.substr(0, slash));
+    if (slash == std::string::npos) return spec;
+    const std::string k = s.substr(slash + 1);
+    // Digits only, 2..1000000: "subsequent/1" would name the whole view under another key.
+    const bool digits = !k.empty() && k.size() <= 7 && k.find_first_not_of("0123456789") == std::string::npos;
+    spec.subset = digits ? std::stoi(k) : 0;
+    if (spec.subset < 2) {
+        throw std::invalid_argument("view '" + s + "': the subset after '/' must be an integer k >= 2 (about 1/k of the pairs)");
+    }
+    return spec;
+}
+
+std::vector<SubmapPair> stratified_subset(const std::vector<SubmapPair>& pairs, View view, int k) {
+    if (k <= 1 || pairs.empty()) return pairs;
+    const std::size_t target = std::max<std::size_t>(1, (pairs.size() + static_cast<std::size_t>(k) - 1) /
+                                                            static_cast<std::size_t>(k));
+    struct RunState {
+        std::vector<int> order;                          // submaps in the order they join
+        std::map<int, std::vector<std::size_t>> touching;  // submap -> pairs (indices into `pairs`)
+        std::set<int> chosen;
+        std::size_t next = 0, selected = 0, total = 0;
+    };
+    std::map<int, RunState> runs;
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+        RunState& r = runs[pairs[i].run];
+        r.touching[pairs[i].a].push_back(i);
+        r.touching[pairs[i].b].push_back(i);
+        ++r.total;
+    }
+    for (auto& [run, r] : runs) {
+        std::vector<int> submaps;
+        for (const auto& t : r.touching) submaps.push_back(t.first);
+        const std::size_t n = submaps.size();
+        const double golden = 0.6180339887498949;
+        const double phase = std::fmod((run + 1) * golden, 1.0);
+        const auto start = std::min(n - 1, static_cast<std::size_t>(phase * static_cast<double>(n)));
+        if (view == View::subsequent) {
+            // Forwards from the start, then backwards from it: one contiguous stretch.
+            for (std::size_t j = start; j < n; ++j) r.order.push_back(submaps[j]);
+            for (std::size_t j = start; j-- > 0;) r.order.push_back(submaps[j]);
+        } else {
+            // Two neighbours at van der Corput positions shifted by the phase: spread along the
+            // run at every size, with the nearest pairs (the most overlap) among the far ones.
+            std::vector<bool> used(n, false);
+            for (std::uint32_t j = 0; r.order.size() < n && j < 64 * n; ++j) {
+                double u = 0, f = 0.5;
+                for (std::uint32_t b = j; b; b >>= 1, f *= 0.5) u += (b & 1) * f;
+                const auto pos = std::min(n - 1, static_cast<std::size_t>(std::fmod(u + phase, 1.0) * static_cast<double>(n)));
+                for (const std::size_t q : {pos, pos + 1 < n ? pos + 1 : pos - 1}) {
+                    if (q < n && !used[q]) {
+                        used[q] = true;
+                        r.order.push_back(submaps[q]);
+                    }
+                }
+            }
+            for (std::size_t j = 0; j < n; ++j) {
+                if (!used[j]) r.order.push_back(submaps[j]);
+            }
+        }
+    }
+    std::vector<bool> in(pairs.size(), false);
+    std::size_t selected = 0;
+    while (selected < target) {
+        // The run furthest behind its share; fewer chosen submaps, then the lower run, break ties.
+        RunState* pick = nullptr;
+        for (auto& [run, r] : runs) {
+            if (r.next >= r.order.size()) continue;
+            if (pick == nullptr) {
+                pick = &r;
+                continue;
+            }
+            const double share = static_cast<double>(r.selected) / static_cast<double>(r.total);
+            const double best = static_cast<double>(pick->selected) / static_cast<double>(pick->total);
+            if (share < best || (share == best && r.chosen.size() < pick->chosen.size())) pick = &r;
+        }
+        if (pick == nullptr) break;
+        const int s = pick->order[pick->next++];
+        pick->chosen.insert(s);
+        for (const std::size_t i : pick->touching[s]) {
+            const int other = pairs[i].a == s ? pairs[i].b : pairs[i].a;
+            if (!in[i] && pick->chosen.count(other)) {
+                in[i] = true;
+                ++pick->selected;
+                ++selected;
+            }
+        }
+    }
+    std::vector<SubmapPair> out;
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+        if (in[i]) out.push_back(pairs[i]);
+    }
+    return out;
+}
 
 namespace {
 
@@ -393,6 +496,10 @@ std::vector<SubmapPair> Dataset::pairs(View view, Reference reference) const {
         }
     }
     return out;
+}
+
+std::vector<SubmapPair> Dataset::pairs(const ViewSpec& view, Reference reference) const {
+    return stratified_subset(pairs(view.view, reference), view.view, view.subset);
 }
 
 std::vector<double> Dataset::reference_overlaps(const std::vector<SubmapPair>& pairs,

@@ -62,6 +62,15 @@ Reference parse_reference(const std::string& s);
 const char* to_string(View v);
 const char* to_string(Reference r);
 
+// A view at a fidelity (multi-fidelity tuning, docs/optimizer.md): "<view>" is the whole
+// view, "<view>/<k>" a fixed stratified subset of about 1/k of its pairs.
+struct ViewSpec {
+    View view = View::subsequent;
+    int subset = 1;  // 1: the whole view
+    std::string str() const;
+};
+ViewSpec parse_view_spec(const std::string& s);  // throws std::invalid_argument
+
 struct SubmapPair {
     int run = 0;
     int a = 0, b = 0;
@@ -69,6 +78,16 @@ struct SubmapPair {
     Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();  // pose of b in a's frame
     double overlap = 0;                                         // from ground truth
 };
+
+// The fixed subset of about 1/k of `pairs` (at least one pair) that "<view>/<k>" names. Built
+// from whole submaps so that it needs the features of few: submaps join the subset one at a
+// time, each run in turn (the run with the smallest share of its pairs selected first: every
+// run is represented in proportion), and a pair is in when both its submaps are. Where a run
+// starts differs by run (golden-ratio offsets), so the subset covers the whole length of the
+// trajectories. A subsequent view grows contiguous stretches (n pairs need n + 1 submaps); a
+// complete view spreads neighbouring submaps along the run, so near and far pairs both appear. Pairs
+// keep their order in `pairs`; the same pairs always give the same subset.
+std::vector<SubmapPair> stratified_subset(const std::vector<SubmapPair>& pairs, View view, int k);
 
 // Writes a dataset into "<out>.tmp-<n>" and renames it to <out> in finish(), so an
 // interrupted write never looks like a valid dataset. Runs may be written concurrently
@@ -135,6 +154,8 @@ public:
     std::size_t num_submaps() const;
 
     std::vector<SubmapPair> pairs(View view, Reference reference) const;
+    // The pairs of a view at a fidelity: stratified_subset of the view's pairs for "<view>/<k>".
+    std::vector<SubmapPair> pairs(const ViewSpec& view, Reference reference) const;
     // Overlap of each pair (|A ∩ B| / min(|A|, |B|) of voxel sets at the manifest's
     // overlap_voxel) with both clouds placed by the `reference` poses. gt: the stored values.
     // odometry: computed from the clouds and odometry poses only — what a robot without

@@ -131,7 +131,7 @@ Experiment load_experiment(const std::string& file) {
     params::check_keys(root, top,
                        {"name", "description", "space", "optimize", "fixed", "dataset", "view",
                         "reference", "measure", "budget", "optimizer", "start_points", "matcher",
-                        "workers", "seeds", "validate", "objective"});
+                        "workers", "seeds", "validate", "objective", "fidelity"});
     Experiment e;
     e.file = file;
     const bool black_box = root["objective"].IsDefined();
@@ -140,7 +140,7 @@ Experiment load_experiment(const std::string& file) {
         if (!root[required].IsDefined()) top.fail(root, std::string("missing key '") + required + "'");
     }
     if (black_box) {
-        for (const char* key : {"dataset", "view", "reference", "measure", "matcher", "validate", "workers"}) {
+        for (const char* key : {"dataset", "view", "reference", "measure", "matcher", "validate", "workers", "fidelity"}) {
             if (root[key].IsDefined()) {
                 top.child(key).fail(root[key], "does not apply to a black-box experiment (one with 'objective')");
             }
@@ -232,6 +232,15 @@ Experiment load_experiment(const std::string& file) {
         if (n["max_pair_seconds"].IsDefined()) {
             e.max_pair_seconds = read_range(n["max_pair_seconds"], p.child("max_pair_seconds"), 1e-6, 1e6);
         }
+    }
+    if (root["fidelity"].IsDefined()) {
+        const YamlPath p = top.child("fidelity");
+        const YAML::Node n = root["fidelity"];
+        params::require_map(n, p);
+        params::check_keys(n, p, {"subset", "z"});
+        if (!n["subset"].IsDefined()) p.fail(n, "missing key 'subset' (k: first evaluate on about 1/k of the pairs)");
+        e.fidelity_subset = read_int(n["subset"], p.child("subset"), 2, 1000000);
+        if (n["z"].IsDefined()) e.fidelity_z = read_range(n["z"], p.child("z"), 0, 10);
     }
     if (root["budget"].IsDefined()) {
         const YamlPath p = top.child("budget");

@@ -52,6 +52,12 @@ struct Experiment {
     // the raw submaps; 0 = none. The optimizer maximizes objective() (p, penalized above the
     // budget); p itself stays the thesis's.
     double max_pair_seconds = 0;
+    // Multi-fidelity (`fidelity: {subset: k, z: Z}`, docs/optimizer.md): a proposal is first
+    // evaluated on the fixed stratified subset "<view>/<k>" and goes on to the whole view only
+    // when its bound on the whole view's p (z standard errors up) can beat the best so far.
+    // 0: every proposal on the whole view.
+    int fidelity_subset = 0;
+    double fidelity_z = 2.0;
     int max_evaluations = 30;
     double max_seconds = 0;                  // 0 = no time budget
     std::string acquisition = "log_ei";      // ucb | ucb_schedule | ei | log_ei

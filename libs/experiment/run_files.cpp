@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "params/yaml_util.hpp"
@@ -34,16 +35,30 @@ double record_objective(const Experiment& e, const EvaluationRecord& r) {
     return r.failed ? r.p : objective(e, r.p, r.pair_s);
 }
 
+int best_index(const Experiment& e, const std::vector<EvaluationRecord>& records) {
+    int best = -1;
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        const auto& r = records[i];
+        if (r.failed || r.fidelity != 1) continue;
+        if (best < 0 ||
+            better(e, record_objective(e, r), record_objective(e, records[static_cast<std::size_t>(best)]))) {
+            best = static_cast<int>(i);
+        }
+    }
+    return best;
+}
+
 std::string trials_csv(const std::vector<EvaluationRecord>& records, const params::ParameterSpace& space) {
     std::ostringstream out;
-    out << "evaluation,p,m,v,eps,failed,from_store,wall_s,pair_s,origin";
+    out << "evaluation,p,m,v,eps,failed,from_store,wall_s,pair_s,fidelity,elapsed_s,origin";
     for (const auto& s : space.specs()) out << "," << s.name;
     out << ",error\n";
     for (const auto& r : records) {
         out << r.number << "," << params::format_double(r.p) << "," << r.m << ","
             << params::format_double(r.v) << "," << params::format_double(r.eps) << ","
             << (r.failed ? 1 : 0) << "," << (r.from_store ? 1 : 0) << "," << params::format_fixed(r.wall_s, 3) << ","
-            << params::format_double(r.pair_s) << "," << r.origin;
+            << params::format_double(r.pair_s) << "," << r.fidelity << "," << params::format_fixed(r.elapsed_s, 3)
+            << "," << r.origin;
         for (const auto& s : space.specs()) {
             const auto v = r.params.find(s.name);
             out << "," << (v ? params::format_double(*v) : "");
@@ -62,10 +77,21 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
     std::string line;
     std::getline(in, line);
     const auto header = split_csv_line(line);
-    // Files written before the pair_s column (after wall_s) resume with pair_s 0.
-    const bool has_pair_s = header.size() > 8 && header[8] == "pair_s";
-    const std::size_t first_param = has_pair_s ? 10 : 9;
-    if (header.size() != first_param + space.size() + 1) {
+    // Columns between wall_s and origin came one by one (pair_s, then fidelity and elapsed_s):
+    // files written before a column resume with its default.
+    const auto origin_at = std::find(header.begin(), header.end(), "origin");
+    const std::size_t first_param = static_cast<std::size_t>(origin_at - header.begin()) + 1;
+    auto optional_column = [&](const char* name) -> std::optional<std::size_t> {
+        const auto it = std::find(header.begin(), origin_at, name);
+        if (it == origin_at) return std::nullopt;
+        return static_cast<std::size_t>(it - header.begin());
+    };
+    const auto pair_s_at = optional_column("pair_s");
+    const auto fidelity_at = optional_column("fidelity");
+    const auto elapsed_at = optional_column("elapsed_s");
+    const std::size_t optional_columns = (pair_s_at ? 1 : 0) + (fidelity_at ? 1 : 0) + (elapsed_at ? 1 : 0);
+    if (header.size() < 9 || origin_at == header.end() || first_param != 9 + optional_columns ||
+        header.size() != first_param + space.size() + 1) {
         throw params::ConfigError(file.string() + ":1: header does not match the design space; "
                                   "use another run directory");
     }
@@ -94,8 +120,11 @@ std::vector<EvaluationRecord> read_trials_csv(const fs::path& file, const params
             r.failed = c[5] == "1";
             r.from_store = c[6] == "1";
             r.wall_s = number(c[7]);
-            if (has_pair_s) r.pair_s = number(c[8]);
-            if (r.pair_s < 0) throw std::invalid_argument(c[8]);
+            if (pair_s_at) r.pair_s = number(c[*pair_s_at]);
+            if (r.pair_s < 0) throw std::invalid_argument("pair_s");
+            if (fidelity_at) r.fidelity = std::stoi(c[*fidelity_at]);
+            if (r.fidelity < 1) throw std::invalid_argument("fidelity");
+            if (elapsed_at) r.elapsed_s = number(c[*elapsed_at]);
             r.origin = c[first_param - 1];
             for (std::size_t i = 0; i < space.size(); ++i) {
                 r.params.set(space.specs()[i].name, number(c[first_param + i]));

@@ -28,11 +28,22 @@ struct EvaluationRecord {
     // Mean seconds per pair from the raw submaps (PairRecord::duration_s); 0 = not known
     // (black-box objectives, trials.csv written before this column).
     double pair_s = 0;
+    // 1: scored on the whole view; k: stopped after the stratified subset "<view>/<k>" could not
+    // beat the best (multi-fidelity) — p is then the subset's estimate of the whole view's p.
+    int fidelity = 1;
+    // [s] since the run started when the answer came (a resumed run goes on from its last
+    // record); 0 in trials.csv written before this column.
+    double elapsed_s = 0;
     std::string origin;              // "start", "initial", "model" (kept when a run resumes)
 };
 
 // What the optimizer was told for a record: experiment::objective of its p and pair_s.
 double record_objective(const Experiment& e, const EvaluationRecord& r);
+
+// The best of a run: the index in `records` of the successful whole-view evaluation with the
+// best record_objective (the first of equals), or -1 when there is none. Subset-only records
+// never count: their p is an estimate.
+int best_index(const Experiment& e, const std::vector<EvaluationRecord>& records);
 
 // The baseline of a run: the index in `records` of the successful evaluation of the
 // experiment's first start point, or -1 when there is none.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <stdexcept>
 
 namespace maptune::measure {
@@ -73,6 +74,101 @@ MatchError pair_error(const Eigen::Isometry3d& T_a_b_ref, const Eigen::Isometry3
     e.e_r = rotation_angle(T_a_b_ref.rotation().transpose() * T_a_b_est.rotation());
     e.d = d;
     return e;
+}
+
+Extrapolation extrapolate(const std::vector<double>& ratings, std::size_t n, std::size_t N,
+                          const MeasureSettings& full, double z) {
+    if (n == 0 || N < n || ratings.size() > n || !(z >= 0)) {
+        throw std::invalid_argument("extrapolate: need 0 < n <= N, matches <= n and z >= 0");
+    }
+    const double nn = static_cast<double>(n), NN = static_cast<double>(N);
+    const double m = static_cast<double>(ratings.size());
+    // Sampling without replacement: the spread shrinks to 0 as the subset becomes the view.
+    const double fpc = N > 1 ? std::sqrt((NN - nn) / (NN - 1)) : 0.0;
+    const double q = m / nn;
+    const double z2 = z * z;
+    const double wilson =
+        (q + z2 / (2 * nn) + z * std::sqrt(q * (1 - q) / nn + z2 / (4 * nn * nn))) / (1 + z2 / nn);
+    const double q_upper = std::min(1.0, q + (wilson - q) * fpc);
+
+    double mean = 0;
+    for (const double r : ratings) mean += r;
+    mean = ratings.empty() ? 0.0 : mean / m;
+    const double best_rating = eps_t(0, full.e_star);
+    double mean_upper = best_rating;
+    if (ratings.size() >= 2) {
+        double ss = 0;
+        for (const double r : ratings) ss += (r - mean) * (r - mean);
+        const double sd = std::sqrt(ss / (m - 1));
+        // The whole view's matches are about q·N; the subset's m of them are known.
+        const double matches = std::max(m, q * NN);
+        const double fpc_m = matches > 1 ? std::sqrt(std::max(0.0, (matches - m) / (matches - 1))) : 0.0;
+        mean_upper = std::min(best_rating, mean + z * sd / std::sqrt(m) * fpc_m);
+    } else if (fpc == 0) {
+        mean_upper = mean;
+    }
+    const double w = full.w_v;
+    Extrapolation out;
+    out.v = v_of_m(q * NN, full.m_star);
+    out.eps = std::max(0.0, mean);
+    out.p = w * out.v + (1 - w) * out.eps;
+    out.p_upper = std::max(out.p, w * v_of_m(q_upper * NN, full.m_star) + (1 - w) * std::max(0.0, mean_upper));
+    return out;
+}
+
+namespace {
+
+// p of outcomes (NaN: no match) over the pairs `index` picks; m* already scaled to them.
+template <class Index>
+double p_of_outcomes(const std::vector<double>& outcomes, const Index& index, std::size_t n, double m_star,
+                     double w_v) {
+    double m = 0, sum = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double r = outcomes[index(i)];
+        if (std::isnan(r)) continue;
+        m += 1;
+        sum += r;
+    }
+    return w_v * v_of_m(m, m_star) + (1 - w_v) * (m > 0 ? std::max(0.0, sum / m) : 0.0);
+}
+
+}  // namespace
+
+PairedDifference paired_difference(const std::vector<double>& x, const std::vector<double>& incumbent,
+                                   std::size_t N, const MeasureSettings& full, double z, double factor_x,
+                                   double factor_incumbent) {
+    const std::size_t n = x.size();
+    if (n == 0 || incumbent.size() != n || N < n || !(z >= 0)) {
+        throw std::invalid_argument("paired_difference: need outcomes of the same 0 < n <= N pairs and z >= 0");
+    }
+    const double m_star = full.m_star * static_cast<double>(n) / static_cast<double>(N);
+    auto diff = [&](const auto& index) {
+        return factor_x * p_of_outcomes(x, index, n, m_star, full.w_v) -
+               factor_incumbent * p_of_outcomes(incumbent, index, n, m_star, full.w_v);
+    };
+    PairedDifference out;
+    out.difference = diff([](std::size_t i) { return i; });
+    const double fpc = N > 1 ? std::sqrt(static_cast<double>(N - n) / static_cast<double>(N - 1)) : 0.0;
+    if (fpc == 0 || z == 0) {
+        out.upper = out.difference;
+        return out;
+    }
+    // A fixed seed: the same answers give the same decision (a resumed run decides alike).
+    std::mt19937_64 rng(0x6d6170747566ULL);
+    std::uniform_int_distribution<std::size_t> pick(0, n - 1);
+    constexpr int kResamples = 400;
+    std::vector<std::size_t> sample(n);
+    double mean = 0, sq = 0;
+    for (int b = 0; b < kResamples; ++b) {
+        for (auto& s : sample) s = pick(rng);
+        const double d = diff([&](std::size_t i) { return sample[i]; });
+        mean += d;
+        sq += d * d;
+    }
+    mean /= kResamples;
+    const double sd = std::sqrt(std::max(0.0, sq / kResamples - mean * mean));
+    out.upper = out.difference + z * sd * fpc;
+    return out;
 }
 
 }  // namespace maptune::measure

@@ -47,6 +47,34 @@ std::string check_errors(const std::vector<MatchError>& errors);
 // errors (NaN, negative): callers validate untrusted input with the check_* functions.
 Score score(const std::vector<MatchError>& errors, const MeasureSettings& settings);
 
+// What a subset of n of a view's N pairs says about p on the whole view (multi-fidelity,
+// docs/optimizer.md). `ratings` are r_i of the subset's matched pairs; `full` holds the whole
+// view's m*. p is the estimate (the subset's match rate scaled to N pairs, its mean rating):
+// exactly the subset's p with m* scaled by n/N. p_upper bounds p on the whole view at z
+// standard errors: a Wilson upper bound on the match rate and a mean rating z standard errors
+// up (each with the finite-population correction, so n = N gives p_upper = p; fewer than two
+// matches leave the rating unbounded: the best a match can rate).
+struct Extrapolation {
+    double p = 0, v = 0, eps = 0;  // the estimate and its parts
+    double p_upper = 0;
+};
+Extrapolation extrapolate(const std::vector<double>& ratings, std::size_t n, std::size_t N,
+                          const MeasureSettings& full, double z);
+
+// Multi-fidelity's paired rule (docs/optimizer.md): a proposal x and the incumbent on the same
+// n of a view's N pairs, one outcome per pair (NaN: not matched; else its rating r_i). Their
+// p on the subset (m* scaled by n/N), each times its factor (the run-time penalty), differ by
+// `difference`; `upper` is that difference z bootstrap standard errors up (pairs resampled,
+// the same resample for both, a fixed seed; finite-population correction). x can still beat
+// the incumbent on the whole view when upper >= 0. Pairs the two matched alike cancel, so a
+// set that matches nothing where the incumbent matches is told apart on a few dozen pairs.
+struct PairedDifference {
+    double difference = 0, upper = 0;
+};
+PairedDifference paired_difference(const std::vector<double>& x, const std::vector<double>& incumbent,
+                                   std::size_t N, const MeasureSettings& full, double z, double factor_x = 1,
+                                   double factor_incumbent = 1);
+
 // Errors of an estimate against a reference, both the pose of B in A's frame.
 MatchError pair_error(const Eigen::Isometry3d& T_a_b_ref, const Eigen::Isometry3d& T_a_b_est,
                       double d);

@@ -124,7 +124,7 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
     std::vector<int> steps;  // every new best-so-far, and the baseline first
     for (std::size_t i = 0; i < trials.size(); ++i) {
         const auto& r = trials[i];
-        if (!r.failed && (best < 0 || experiment::better(e, experiment::record_objective(e, r),
+        if (!r.failed && r.fidelity == 1 && (best < 0 || experiment::better(e, experiment::record_objective(e, r),
                                                          experiment::record_objective(e, trials[static_cast<std::size_t>(best)])))) {
             best = static_cast<int>(i);
             steps.push_back(best);
@@ -140,6 +140,8 @@ json run_data(const fs::path& run_dir, const ReportOptions& options) {
                                {"from_store", r.from_store},
                                {"wall_s", r.wall_s},
                                {"pair_s", r.pair_s},
+                               {"fidelity", r.fidelity},
+                               {"elapsed_s", r.elapsed_s},
                                {"objective", experiment::record_objective(e, r)},
                                {"origin", r.origin},
                                {"best_so_far", best >= 0 ? json(trials[static_cast<std::size_t>(best)].p) : json(nullptr)},

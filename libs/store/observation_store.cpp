@@ -350,6 +350,12 @@ std::optional<Observation> ObservationStore::get(const ObservationKey& key) cons
     return std::move(rows.front());
 }
 
+std::vector<Observation> ObservationStore::other_views(const ObservationKey& key) const {
+    return impl_->query(
+        " AND dataset_id = ? AND matcher_id = ? AND matcher_version = ? AND params_key = ? AND view <> ?",
+        {key.dataset_id, key.matcher_id, key.matcher_version, key.params_key, key.view}, {}, 0);
+}
+
 bool ObservationStore::put(const Observation& observation) {
     Observation o = observation;
     if (o.created_unix_ms == 0) o.created_unix_ms = now_unix_ms();

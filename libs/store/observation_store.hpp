@@ -93,6 +93,10 @@ public:
     ObservationStore& operator=(ObservationStore&&) noexcept;
 
     std::optional<Observation> get(const ObservationKey& key) const;
+    // The observations of the same set on the same dataset by the same matcher version under
+    // other views (a view and its multi-fidelity subsets, "subsequent" and "subsequent/8"): a
+    // pair's result does not depend on the view, so sample_db reuses their pairs.
+    std::vector<Observation> other_views(const ObservationKey& key) const;
     // Idempotent: true when stored, false when an observation with this key already exists
     // (the first one is kept). Durable when it returns (one transaction, synchronous=FULL).
     bool put(const Observation& observation);

@@ -15,6 +15,11 @@ TuningRun::TuningRun(experiment::Experiment experiment, TuningOptions options, S
     if (options_.incarnation.empty()) throw std::invalid_argument("TuningRun: an incarnation id is required");
     if (!scorer_) throw std::invalid_argument("TuningRun: a scorer is required");
     summary_.m_star = m_star;
+    // A subset as large as the view saves nothing: every proposal on the whole view.
+    if (options_.fidelity && (options_.fidelity->pairs == 0 || options_.fidelity->pairs >= options_.fidelity->view_pairs ||
+                              !options_.fidelity->outcomes)) {
+        options_.fidelity.reset();
+    }
     for (const auto& sp : experiment_.start_points) {
         optimizer_.add_start_point(experiment::optimizer_values(experiment_, sp));
     }
@@ -48,6 +53,7 @@ void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
     optimizer_.replay(history, origins);
     resumed_ = trials.size();
     sequence_ = trials.size();
+    for (const auto& r : trials) elapsed_before_ = std::max(elapsed_before_, r.elapsed_s);
     if (const auto pb = optimizer_.predicted_best()) {
         summary_.predicted_best = experiment::full_set(experiment_, pb->values);
         summary_.predicted_mean = pb->mean;
@@ -57,15 +63,47 @@ void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
 
 void TuningRun::add(EvaluationRecord record) {
     summary_.evaluations.push_back(std::move(record));
-    const auto& r = summary_.evaluations.back();
     // Best by what the optimizer maximizes: with a run-time budget, a fast set may beat a
     // slightly more accurate one that is too slow.
-    if (!r.failed && (summary_.best < 0 ||
-                      experiment::better(experiment_, experiment::record_objective(experiment_, r),
-                                         experiment::record_objective(
-                                             experiment_, summary_.evaluations[static_cast<std::size_t>(summary_.best)])))) {
-        summary_.best = static_cast<int>(summary_.evaluations.size()) - 1;
+    summary_.best = experiment::best_index(experiment_, summary_.evaluations);
+}
+
+std::string TuningRun::next_id() {
+    return options_.experiment_id + "/" + options_.incarnation + "/" + std::to_string(++sequence_);
+}
+
+bool TuningRun::subset_passes(const Reply& reply, EvaluationRecord& rec) const {
+    const Fidelity& f = *options_.fidelity;
+    const auto outcomes = f.outcomes(reply.pairs);
+    std::vector<double> ratings;
+    for (const double r : outcomes) {
+        if (!std::isnan(r)) ratings.push_back(r);
     }
+    const measure::MeasureSettings full{experiment_.e_star, summary_.m_star, experiment_.w_v};
+    const measure::Extrapolation x = measure::extrapolate(ratings, f.pairs, f.view_pairs, full, experiment_.fidelity_z);
+    double seconds = 0;
+    for (const auto& pair : reply.pairs) seconds += pair.duration_s;
+    rec.pair_s = reply.pairs.empty() ? 0.0
+                                     : std::round(seconds / static_cast<double>(reply.pairs.size()) * 1e4) / 1e4;
+    if (summary_.best < 0) return true;
+    const EvaluationRecord& best = summary_.evaluations[static_cast<std::size_t>(summary_.best)];
+    bool passes = false;
+    if (const auto it = subset_outcomes_.find(summary_.best); it != subset_outcomes_.end()) {
+        const auto d = measure::paired_difference(outcomes, it->second, f.view_pairs, full, experiment_.fidelity_z,
+                                                  experiment::objective(experiment_, 1.0, rec.pair_s),
+                                                  experiment::objective(experiment_, 1.0, best.pair_s));
+        passes = d.upper >= 0;
+    } else {
+        const double upper = experiment::objective(experiment_, x.p_upper, rec.pair_s);
+        passes = !experiment::better(experiment_, experiment::record_objective(experiment_, best), upper);
+    }
+    if (passes) return true;
+    rec.p = x.p;
+    rec.v = x.v;
+    rec.eps = x.eps;
+    rec.m = ratings.size();
+    rec.fidelity = experiment_.fidelity_subset;
+    return false;
 }
 
 std::size_t TuningRun::failed() const {
@@ -86,7 +124,10 @@ std::optional<std::string> TuningRun::stop_reason(double now_s, bool stop_reques
 
 std::vector<Request> TuningRun::ask(int slots, double now_s) {
     if (!started_at_) started_at_ = now_s;
-    std::vector<Request> out;
+    // Proposals that passed their subset are already in flight: their whole-view requests go
+    // out whatever the budgets say, as a re-send would.
+    std::vector<Request> out = std::move(continuations_);
+    continuations_.clear();
     if (experiment_.max_seconds > 0 && now_s - *started_at_ > experiment_.max_seconds) return out;
     const int target = experiment_.batch > 0 ? experiment_.batch : std::max(1, slots);
     const int done = static_cast<int>(summary_.evaluations.size());
@@ -97,9 +138,12 @@ std::vector<Request> TuningRun::ask(int slots, double now_s) {
         const auto& pr = proposals.front();
         InFlight f;
         f.proposal = pr.id;
-        f.request.id = options_.experiment_id + "/" + options_.incarnation + "/" + std::to_string(++sequence_);
+        f.request.id = next_id();
         f.request.params = experiment::full_set(experiment_, pr.values);
         f.request.origin = pr.origin;
+        // Start points are the reference every report compares with: always the whole view.
+        f.request.view = options_.fidelity && summary_.best >= 0 && pr.origin != "start" ? options_.fidelity->view
+                                                                                          : experiment_.view;
         f.key = set_key(f.request.params);
         f.sent_at = f.last_sent_at = now_s;
         out.push_back(f.request);
@@ -124,17 +168,38 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
     if (it == in_flight_.end()) return ReplyOutcome::kNotInFlight;
     // An answer whose set differs is someone else's: never told to the model.
     if (reply.ok && set_key(reply.params) != it->second.key) return ReplyOutcome::kOtherSet;
-    const InFlight f = it->second;
+    InFlight f = it->second;
     in_flight_.erase(it);
 
     EvaluationRecord rec;
+    if (reply.ok && f.request.view != experiment_.view) {
+        bool passes = false;
+        try {
+            passes = subset_passes(reply, rec);
+        } catch (const std::exception& ex) {
+            rec.failed = true;
+            rec.error = std::string("cannot score the reply: ") + ex.what();
+        }
+        if (passes) {
+            f.request.id = next_id();
+            f.request.view = experiment_.view;
+            f.last_sent_at = now_s;
+            continuations_.push_back(f.request);
+            in_flight_[f.request.id] = f;
+            return ReplyOutcome::kContinued;
+        }
+    }
     rec.number = static_cast<int>(summary_.evaluations.size()) + 1;
     rec.origin = f.request.origin;
     rec.wall_s = now_s - f.sent_at;
+    rec.elapsed_s = elapsed_before_ + now_s - started_at_.value_or(now_s);
     rec.from_store = reply.from_store;
     rec.params = experiment_.space.round(f.request.params);
     std::string error = reply.ok ? "" : (reply.error.empty() ? std::string("evaluation failed") : reply.error);
-    if (error.empty()) {
+    if (rec.failed) error = rec.error;
+    if (rec.fidelity != 1) {
+        rec.params = experiment_.space.round(reply.params);
+    } else if (error.empty()) {
         try {
             const measure::Score s = reply.score ? *reply.score : scorer_(reply.pairs);
             rec.params = experiment_.space.round(reply.params);
@@ -161,6 +226,14 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
     // The model learns the set as evaluated (rounded by the space), not the proposal's raw
     // values: exactly what a restart reads back from trials.csv, so a resumed run proposes
     // what this one would have proposed.
+    // The subset's outcomes of a whole-view evaluation: what later proposals are compared with.
+    if (options_.fidelity && !rec.failed && rec.fidelity == 1) {
+        try {
+            subset_outcomes_[static_cast<int>(summary_.evaluations.size())] = options_.fidelity->outcomes(reply.pairs);
+        } catch (const std::exception&) {
+            // Not comparable on pairs: the unpaired bound stands in.
+        }
+    }
     optimizer_.cancel(f.proposal);
     optimizer_.add_observation({experiment::optimizer_values(experiment_, rec.params),
                                 experiment::record_objective(experiment_, rec), rec.failed, rec.error});

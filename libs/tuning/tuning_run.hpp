@@ -14,7 +14,14 @@
 // - a reply that is an error or cannot be scored is a failed evaluation (told to the model as
 //   a failure), never the end of the run;
 // - resuming from the trials of an earlier run restores the history, the best and the
-//   evaluation numbering, and never re-adds the start points.
+//   evaluation numbering, and never re-adds the start points;
+// - with multi-fidelity (Fidelity), a proposal other than a start point is first asked on the
+//   subset view; it goes on to the whole view (a new request, the same proposal) only when it
+//   can still beat the best so far: the upper bound of its paired difference to the best on
+//   the same pairs is >= 0 (measure::paired_difference; after a resume, until a whole-view
+//   evaluation gives the best's pairs, the unpaired measure::extrapolate bound against the
+//   best's objective). Otherwise the subset's estimate is its evaluation (fidelity k), told to
+//   the model, never the best.
 
 #include <cstdint>
 #include <functional>
@@ -38,6 +45,7 @@ struct Request {
     std::string id;               // "<experiment_id>/<incarnation>/<n>"
     params::ParameterSet params;  // the full set: optimized values and the experiment's fixed ones
     std::string origin;           // "start", "initial", "model"
+    std::string view;             // the experiment's view, or the subset view of multi-fidelity
 };
 
 // An evaluator's answer to a request.
@@ -63,14 +71,28 @@ struct RunSummary {
     std::string stop_reason;
 };
 
+// Multi-fidelity (the experiment's `fidelity:`): the subset view and how to rate answers on it.
+struct Fidelity {
+    std::string view;             // "<view>/<k>"
+    std::size_t pairs = 0;        // pairs of the subset
+    std::size_t view_pairs = 0;   // pairs of the whole view
+    // One outcome per pair of the subset, in its order, from an answer holding them (the
+    // subset's or the whole view's): NaN when not matched, else r_i. Throws when it cannot be
+    // scored.
+    std::function<std::vector<double>(const std::vector<store::PairRecord>&)> outcomes;
+};
+
 struct TuningOptions {
     std::string experiment_id;  // empty: the experiment's name
     std::string incarnation;    // required: unique per process life
     double resend_s = 15;       // re-send a request unanswered this long (the evaluator restarting)
+    // Given (and smaller than the view) when the experiment asks for multi-fidelity.
+    std::optional<Fidelity> fidelity;
 };
 
 enum class ReplyOutcome {
     kAccepted,    // a new evaluation (successful or failed)
+    kContinued,   // the subset answer can still beat the best: the whole view is asked next
     kNotInFlight, // no such request in flight: another optimizer's, an earlier life's, a duplicate
     kOtherSet,    // the request is ours but the answer is for another parameter set
 };
@@ -83,7 +105,8 @@ public:
     void resume(const std::vector<EvaluationRecord>& trials);
 
     // New requests so that min(slots, batch) are in flight, within the evaluation budget and
-    // not after the time budget ran out. `now_s` is any monotonic clock in seconds.
+    // not after the time budget ran out, and first the whole-view requests of proposals that
+    // passed their subset. `now_s` is any monotonic clock in seconds.
     std::vector<Request> ask(int slots, double now_s);
     // Requests unanswered for resend_s since they were last sent; marks them sent at now_s.
     std::vector<Request> due_resends(double now_s);
@@ -114,6 +137,10 @@ private:
         double sent_at = 0, last_sent_at = 0;
     };
     void add(EvaluationRecord record);
+    std::string next_id();
+    // Whether the subset answer `reply` lets its proposal go on to the whole view; otherwise
+    // fills `rec` with the subset's estimate.
+    bool subset_passes(const Reply& reply, EvaluationRecord& rec) const;
 
     experiment::Experiment experiment_;
     TuningOptions options_;
@@ -124,6 +151,9 @@ private:
     std::uint64_t sequence_ = 0;
     std::size_t resumed_ = 0;
     std::optional<double> started_at_;
+    double elapsed_before_ = 0;             // elapsed_s of a resumed run's last record
+    std::vector<Request> continuations_;    // whole-view requests to send
+    std::map<int, std::vector<double>> subset_outcomes_;  // evaluation index -> its subset outcomes
 };
 
 }  // namespace maptune::tuning

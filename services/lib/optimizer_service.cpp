@@ -114,7 +114,7 @@ void OptimizerService::send(const tuning::Request& r) {
     m.request_id(r.id);
     m.requester(options_.experiment_id);
     m.dataset_id(dataset_id_);
-    m.view(e.view);
+    m.view(r.view.empty() ? e.view : r.view);
     m.matcher_id(options_.matcher_id);
     m.matcher_version(matcher_version_);
     m.space_hash(e.space.hash());
@@ -177,7 +177,9 @@ void OptimizerService::publish(const tuning::TuningRun& run, const EvaluationRec
     }
     const auto& best = summary.evaluations[static_cast<std::size_t>(summary.best)];
     log("evaluation " + std::to_string(rec.number) + ": p=" + fmt(rec.p) + " m=" + std::to_string(rec.m) +
-        (rec.from_store ? " (stored)" : "") + ps + " | best so far p=" + fmt(best.p) + " (evaluation " +
+        (rec.from_store ? " (stored)" : "") +
+        (rec.fidelity != 1 ? " (estimate from 1/" + std::to_string(rec.fidelity) + " of the pairs: cannot beat the best)" : "") +
+        ps + " | best so far p=" + fmt(best.p) + " (evaluation " +
         std::to_string(best.number) + ")");
 }
 
@@ -239,7 +241,28 @@ RunSummary OptimizerService::run() {
                                   "(maptune_matcher_worker --experiment FILE)"));
     }
 
-    tuning::TuningRun run(e, {options_.experiment_id, options_.incarnation, options_.resend_s},
+    tuning::TuningOptions tuning_options{options_.experiment_id, options_.incarnation, options_.resend_s, {}};
+    std::vector<dataset::SubmapPair> subset;
+    if (e.fidelity_subset > 1) {
+        const dataset::ViewSpec spec{dataset::parse_view(e.view), e.fidelity_subset};
+        subset = ds->pairs(spec, reference);
+        tuning::Fidelity f;
+        f.view = spec.str();
+        f.pairs = subset.size();
+        f.view_pairs = pairs.size();
+        f.outcomes = [&](const std::vector<store::PairRecord>& results) {
+            std::vector<double> outcomes;
+            for (const auto& p : scoring::score_observation(*ds, subset, results, settings).per_pair) {
+                outcomes.push_back(p.matched ? p.rating : std::nan(""));
+            }
+            return outcomes;
+        };
+        tuning_options.fidelity = f;
+        log("multi-fidelity: proposals start on " + f.view + " (" + std::to_string(subset.size()) + " of " +
+            std::to_string(pairs.size()) + " pairs) and go on to the whole view when they can still beat the best on those pairs (z = " +
+            fmt(e.fidelity_z, 2) + ")");
+    }
+    tuning::TuningRun run(e, tuning_options,
                           [&](const std::vector<store::PairRecord>& results) {
                               return scoring::score_observation(*ds, pairs, results, settings).score;
                           },
@@ -271,6 +294,10 @@ RunSummary OptimizerService::run() {
         for (const auto& m : replies) {
             tuning::EvaluationRecord rec;
             const auto outcome = run.tell(to_reply(m), now_s(), &rec);
+            if (outcome == tuning::ReplyOutcome::kContinued) {
+                if (tty) std::cout << "\r\033[K";
+                log("proposal of " + m.request_id() + " can still beat the best on the subset: evaluating the whole view");
+            }
             if (outcome == tuning::ReplyOutcome::kOtherSet) {
                 log("ignored a reply to " + m.request_id() + " for another parameter set (" + m.params_key() + ")");
             }

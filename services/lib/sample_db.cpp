@@ -208,8 +208,11 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
     } catch (const std::exception& e) {
         return reply_error(r, e.what());
     }
-    if (r.view() != "complete" && r.view() != "subsequent") {
-        return reply_error(r, "view '" + r.view() + "' is not complete or subsequent");
+    dataset::ViewSpec view;
+    try {
+        view = dataset::parse_view_spec(r.view());
+    } catch (const std::exception& e) {
+        return reply_error(r, e.what());
     }
     if (r.matcher_id().empty()) return reply_error(r, "matcher_id is empty");
     // An unannounced dataset may still come (services start in any order): park the request
@@ -253,12 +256,35 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
     spec.space_hash = r.space_hash();
     spec.matcher_settings = r.matcher_settings();
     spec.params = full;
-    for (const auto& p : ds->pairs(dataset::parse_view(r.view()), dataset::Reference::gt)) {
-        spec.pair_ids.push_back(scoring::pair_id(p));
+    Known view_pairs;
+    for (const auto& p : ds->pairs(view, dataset::Reference::gt)) view_pairs.order.push_back(scoring::pair_id(p));
+    // What other views of this set already computed is not computed again.
+    std::map<std::string, store::PairRecord> elsewhere;
+    for (auto& o : store_.other_views(key)) {
+        for (auto& p : o.pairs) elsewhere.emplace(p.pair_id, std::move(p));
+    }
+    for (const auto& id : view_pairs.order) {
+        if (auto it = elsewhere.find(id); it != elsewhere.end()) {
+            view_pairs.pairs.emplace(id, it->second);
+        } else {
+            spec.pair_ids.push_back(id);
+        }
+    }
+    if (spec.pair_ids.empty()) {
+        store::Observation o;
+        o.key = key;
+        o.params = full;
+        for (const auto& id : view_pairs.order) o.pairs.push_back(view_pairs.pairs.at(id));
+        store_.put(o);
+        reply(r.request_id(), store_.get(key).value_or(o), true);
+        std::lock_guard<std::mutex> lock(mutex_);
+        ++stats_.from_store;
+        return;
     }
     const std::string job_key = key.dataset_id + "\n" + key.view + "\n" + key.matcher_id + "\n" +
                                 key.matcher_version + "\n" + key.params_key;
     job_keys_[job_key] = key;
+    if (!view_pairs.pairs.empty()) known_[job_key] = std::move(view_pairs);
     scheduler_.submit(job_key, std::move(spec), r.request_id(), now_s());
 }
 
@@ -288,6 +314,15 @@ void SampleDb::finish(scheduler::CompletedJob job) {
     job_keys_.erase(job.job_key);
     o.params = job.spec.params;
     o.pairs = std::move(job.pairs);
+    if (auto it = known_.find(job.job_key); it != known_.end()) {
+        // The view's order, its known pairs with the ones just computed.
+        for (auto& p : o.pairs) it->second.pairs[p.pair_id] = std::move(p);
+        o.pairs.clear();
+        for (const auto& id : it->second.order) {
+            if (auto p = it->second.pairs.find(id); p != it->second.pairs.end()) o.pairs.push_back(std::move(p->second));
+        }
+        known_.erase(it);
+    }
     o.wall_seconds = job.finished_at - job.started_at;
     // Timeouts depend on the machine's load and worker failures on the worker: the requesters
     // get the answer, the store does not keep it, and a later request runs the matcher again.

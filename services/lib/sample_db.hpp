@@ -79,6 +79,13 @@ private:
     using Opened = std::pair<std::shared_ptr<const dataset::Dataset>, std::string>;  // dataset or error
     std::map<std::string, std::future<Opened>> opening_;  // metadata fetches in flight, by dataset id
     std::map<std::string, store::ObservationKey> job_keys_;  // scheduler key -> store key
+    // Pairs of a job's view already known from observations of the set under other views
+    // (multi-fidelity: the whole view after its subset); the job runs only the others.
+    struct Known {
+        std::vector<std::string> order;                     // the view's pair ids
+        std::map<std::string, store::PairRecord> pairs;
+    };
+    std::map<std::string, Known> known_;                    // scheduler key -> known pairs
     // Requests waiting for their dataset to be announced, with the time they arrived.
     std::vector<std::pair<double, msg::v1::ObservationRequest>> parked_;
     mutable std::mutex mutex_;

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
+#include <set>
 
 #include "dataset/dataset.hpp"
 #include "dataset/geometry.hpp"
@@ -488,4 +490,99 @@ TEST(RenderTest, WritesPng) {
     EXPECT_EQ(bytes.substr(1, 3), "PNG");
     write_png(temp_root() / "sub.png", render_submap(d.load_submap(0, 0), 320, 240));
     EXPECT_GT(fs::file_size(temp_root() / "sub.png"), 1000u);
+}
+
+// Multi-fidelity subsets (issue 16 item 2): about 1/k of the pairs, every run in proportion,
+// few submaps (features) per pair, the whole length of the runs, always the same pairs.
+namespace {
+
+std::vector<SubmapPair> synthetic_pairs(int runs, int submaps, View view) {
+    std::vector<SubmapPair> out;
+    for (int r = 0; r < runs; ++r) {
+        for (int a = 0; a < submaps; ++a) {
+            for (int b = a + 1; b < submaps; ++b) {
+                if (view == View::subsequent && b != a + 1) continue;
+                SubmapPair p;
+                p.run = r;
+                p.a = a;
+                p.b = b;
+                p.id_a = "run" + std::to_string(r) + "/submap" + std::to_string(a);
+                p.id_b = "run" + std::to_string(r) + "/submap" + std::to_string(b);
+                out.push_back(p);
+            }
+        }
+    }
+    return out;
+}
+
+std::size_t touched_submaps(const std::vector<SubmapPair>& pairs) {
+    std::set<std::string> ids;
+    for (const auto& p : pairs) ids.insert({p.id_a, p.id_b});
+    return ids.size();
+}
+
+}  // namespace
+
+TEST(ViewSpec, ParsesSubsetsAndRejectsWhatIsNotOne) {
+    EXPECT_EQ(parse_view_spec("subsequent").subset, 1);
+    const auto s = parse_view_spec("complete/8");
+    EXPECT_EQ(s.view, View::complete);
+    EXPECT_EQ(s.subset, 8);
+    EXPECT_EQ(s.str(), "complete/8");
+    EXPECT_EQ(parse_view_spec("subsequent").str(), "subsequent");
+    for (const char* bad : {"subsequent/1", "subsequent/0", "subsequent/", "subsequent/x", "subsequent/8x",
+                            "sideways/8", "subsequent/-4", "complete/99999999"}) {
+        EXPECT_THROW(parse_view_spec(bad), std::invalid_argument) << bad;
+    }
+}
+
+TEST(StratifiedSubset, SubsequentViewTakesContiguousStretchesFromEveryRun) {
+    const auto all = synthetic_pairs(40, 40, View::subsequent);  // the moon preset's shape
+    for (const int k : {2, 4, 8, 16}) {
+        const auto sub = stratified_subset(all, View::subsequent, k);
+        const std::size_t target = (all.size() + k - 1) / k;
+        EXPECT_GE(sub.size(), target) << k;
+        EXPECT_LE(sub.size(), target + 1) << k;
+        std::map<int, int> per_run;
+        for (const auto& p : sub) ++per_run[p.run];
+        EXPECT_EQ(per_run.size(), 40u) << "every run is represented, k = " << k;
+        for (const auto& [run, n] : per_run) {
+            EXPECT_NEAR(n, 39.0 / k, 1.0) << "run " << run << " in proportion, k = " << k;
+        }
+        // Contiguous: n pairs of a run need n + 1 submaps.
+        EXPECT_EQ(touched_submaps(sub), sub.size() + per_run.size()) << k;
+        EXPECT_EQ(stratified_subset(all, View::subsequent, k).size(), sub.size());
+    }
+    // The stretches start at different places along the runs: early, middle and late pairs.
+    const auto sub = stratified_subset(all, View::subsequent, 8);
+    std::set<int> thirds;
+    for (const auto& p : sub) thirds.insert(p.a * 3 / 40);
+    EXPECT_EQ(thirds.size(), 3u);
+}
+
+TEST(StratifiedSubset, CompleteViewSpreadsItsSubmapsSoNearAndFarPairsAppear) {
+    const auto all = synthetic_pairs(40, 40, View::complete);  // 31 200 pairs
+    const auto sub = stratified_subset(all, View::complete, 8);
+    const std::size_t target = all.size() / 8;
+    EXPECT_GE(sub.size(), target);
+    EXPECT_LE(sub.size(), target + 40u);
+    // Pairs grow with the square of the submaps: 1/8 of the pairs needs far fewer than 1/2 of the features.
+    EXPECT_LE(touched_submaps(sub), 1600u * 45 / 100);
+    int max_gap = 0, min_gap = 40;
+    std::map<int, int> per_run;
+    for (const auto& p : sub) {
+        max_gap = std::max(max_gap, p.b - p.a);
+        min_gap = std::min(min_gap, p.b - p.a);
+        ++per_run[p.run];
+    }
+    EXPECT_EQ(per_run.size(), 40u);
+    EXPECT_EQ(min_gap, 1);
+    EXPECT_GE(max_gap, 30);
+}
+
+TEST(StratifiedSubset, SmallViewsKeepAtLeastOnePairAndKOneIsTheView) {
+    const auto all = synthetic_pairs(1, 3, View::subsequent);
+    EXPECT_EQ(stratified_subset(all, View::subsequent, 1).size(), all.size());
+    EXPECT_EQ(stratified_subset(all, View::subsequent, 100).size(), 1u);
+    EXPECT_TRUE(stratified_subset({}, View::subsequent, 8).empty());
 }

@@ -179,12 +179,13 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         });
         const JoinOnExit join_worker{stop, worker};
 
-        auto ask = [&](const std::string& id, double r_n, const std::string& matcher = "lru_matcher") {
+        auto ask = [&](const std::string& id, double r_n, const std::string& matcher = "lru_matcher",
+                       const std::string& view = "complete") {
             v1::ObservationRequest req;
             req.request_id(id);
             req.requester("test");
             req.dataset_id(ds.manifest().id);
-            req.view("complete");
+            req.view(view);
             req.matcher_id(matcher);
             req.matcher_version("test");
             req.space_hash(space.hash());
@@ -265,11 +266,44 @@ TEST(SampleDbFaults, BrokenResultsRunAgainAndTimeoutsAreNotStored) {
         }
         EXPECT_EQ(invalid, 1);
         EXPECT_EQ(not_stored, 1);
+
+        // Multi-fidelity (issue 16 item 2): the whole view after its subset runs only the other
+        // pairs; a subset of a stored view runs none; a subset view that is not one is refused.
+        auto pairs_sent = [&] {
+            std::lock_guard<std::mutex> lock(m);
+            std::size_t n = 0;
+            for (const auto& t : tasks_seen) n += t.pair_ids().size();
+            return n;
+        };
+        const std::size_t view_pairs = ds.pairs(dataset::View::complete, dataset::Reference::gt).size();
+        const std::size_t subset_pairs = ds.pairs(dataset::parse_view_spec("complete/3"), dataset::Reference::gt).size();
+        ASSERT_LT(subset_pairs, view_pairs);
+        const std::size_t before = pairs_sent();
+        ask("s1", 0.25, "lru_matcher", "complete/3");
+        const auto s1 = reply_to("s1");
+        ASSERT_TRUE(s1.has_value() && s1->ok());
+        EXPECT_EQ(s1->pairs().size(), subset_pairs);
+        EXPECT_EQ(pairs_sent() - before, subset_pairs);
+        ask("s2", 0.25);
+        const auto s2 = reply_to("s2");
+        ASSERT_TRUE(s2.has_value() && s2->ok());
+        EXPECT_EQ(s2->pairs().size(), view_pairs);
+        EXPECT_EQ(pairs_sent() - before, view_pairs) << "the subset's pairs were not computed again";
+        ask("s3", 0.25, "lru_matcher", "complete/2");
+        const auto s3 = reply_to("s3");
+        ASSERT_TRUE(s3.has_value() && s3->ok());
+        EXPECT_TRUE(s3->from_store());
+        EXPECT_EQ(pairs_sent() - before, view_pairs);
+        ask("s4", 0.25, "lru_matcher", "complete/1");
+        const auto s4 = reply_to("s4");
+        ASSERT_TRUE(s4.has_value());
+        EXPECT_FALSE(s4->ok());
+        EXPECT_NE(s4->error().find("complete/1"), std::string::npos) << s4->error();
         stop = true;
         worker.join();
     }
     const store::ObservationStore check((dir / "obs.db").string());
-    EXPECT_EQ(check.count(), 2u);
+    EXPECT_EQ(check.count(), 5u);
     testing::remove_orphaned_fastdds_shm(shm_before);
     fs::remove_all(dir);
 }

@@ -105,3 +105,79 @@ TEST(PairError, RotationAngleIsAccurateAtTinyAndNearPiAngles) {
 
 }  // namespace
 }  // namespace maptune::measure
+
+namespace maptune::measure {
+namespace {
+
+// Multi-fidelity (issue 16 item 2): a subset's estimate is its own p with m* scaled, the bound
+// is above it, tightens with more pairs and is the estimate once the subset is the view.
+TEST(Extrapolate, EstimateIsTheSubsetsPWithScaledMStarAndTheBoundIsAboveIt) {
+    const MeasureSettings full{0.4, 480, 0.5};
+    std::vector<MatchError> errors;
+    std::vector<double> ratings;
+    for (int i = 0; i < 150; ++i) {
+        errors.push_back({0.02 + 0.003 * (i % 50), 0.001, 10});
+        ratings.push_back(rate_match(errors.back(), full.e_star));
+    }
+    const Score subset = score(errors, {0.4, 480.0 * 195 / 1560, 0.5});
+    const Extrapolation x = extrapolate(ratings, 195, 1560, full, 2);
+    EXPECT_NEAR(x.p, subset.p, 1e-12);
+    EXPECT_NEAR(x.v, subset.v, 1e-12);
+    EXPECT_NEAR(x.eps, subset.eps, 1e-12);
+    EXPECT_GT(x.p_upper, x.p);
+    EXPECT_LT(x.p_upper, x.p + 0.1);
+    EXPECT_DOUBLE_EQ(extrapolate(ratings, 195, 1560, full, 0).p_upper, x.p);
+
+    const Extrapolation whole = extrapolate(ratings, 1560, 1560, full, 2);
+    EXPECT_DOUBLE_EQ(whole.p_upper, whole.p);
+    // Four times the pairs (the same rate and ratings): a tighter bound.
+    std::vector<double> more;
+    for (int i = 0; i < 4; ++i) more.insert(more.end(), ratings.begin(), ratings.end());
+    EXPECT_LT(extrapolate(more, 780, 1560, full, 2).p_upper - x.p, x.p_upper - x.p);
+}
+
+TEST(Extrapolate, NoMatchesBoundOnlyWhatTheMatchRateAllows) {
+    const MeasureSettings full{0.4, 480, 0.5};
+    const Extrapolation none = extrapolate({}, 195, 1560, full, 2);
+    EXPECT_DOUBLE_EQ(none.p, 0.0);
+    // Unknown ratings may be the best, but at most ~z²/n of the pairs can match.
+    EXPECT_GT(none.p_upper, 0.0);
+    EXPECT_LT(none.p_upper, 0.5 * v_of_m(0.03 * 1560, 480) + 0.5 * eps_t(0, 0.4));
+    EXPECT_THROW(extrapolate({0.5}, 0, 10, full, 2), std::invalid_argument);
+    EXPECT_THROW(extrapolate({0.5, 0.5}, 1, 10, full, 2), std::invalid_argument);
+    EXPECT_THROW(extrapolate({}, 11, 10, full, 2), std::invalid_argument);
+}
+
+
+TEST(PairedDifference, PairsMatchedAlikeCancelAndNothingWhereTheBestMatchesIsToldApart) {
+    const MeasureSettings full{0.4, 480, 0.5};
+    const double no = std::nan("");
+    std::vector<double> best, same, none, better;
+    for (int i = 0; i < 50; ++i) {
+        const bool matched = i % 5 != 0;  // 40 of 50
+        best.push_back(matched ? 0.8 : no);
+        same.push_back(best.back());
+        none.push_back(no);
+        better.push_back(0.9);
+    }
+    const auto tie = paired_difference(same, best, 1560, full, 2);
+    EXPECT_DOUBLE_EQ(tie.difference, 0.0);
+    EXPECT_DOUBLE_EQ(tie.upper, 0.0) << "identical outcomes: every resample agrees";
+    const auto hopeless = paired_difference(none, best, 1560, full, 2);
+    EXPECT_LT(hopeless.upper, 0.0);
+    EXPECT_LT(hopeless.difference, hopeless.upper);
+    const auto up = paired_difference(better, best, 1560, full, 2);
+    EXPECT_GT(up.difference, 0.0);
+    // The same pairs as the whole view: no sampling error left.
+    const auto whole = paired_difference(none, best, 50, full, 2);
+    EXPECT_DOUBLE_EQ(whole.upper, whole.difference);
+    // A run-time penalty on the incumbent counts: the same outcomes at a quarter of its p lose.
+    EXPECT_GT(paired_difference(same, best, 1560, full, 2, 1.0, 0.25).difference, 0.0);
+    // Deterministic: the same answers, the same decision.
+    EXPECT_DOUBLE_EQ(paired_difference(better, best, 1560, full, 2).upper, up.upper);
+    EXPECT_THROW(paired_difference(same, {0.5}, 1560, full, 2), std::invalid_argument);
+    EXPECT_THROW(paired_difference(same, best, 10, full, 2), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace maptune::measure

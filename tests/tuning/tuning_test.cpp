@@ -363,5 +363,149 @@ TEST_F(TuningRunTest, ARunTimeBudgetIsReadAndABadOneNamesTheKey) {
     }
 }
 
+
+// Multi-fidelity (issue 16 item 2): after the start point, proposals go to the subset view; one
+// that cannot beat the best stops there (its estimate told to the model, never the best), one
+// that can goes on to the whole view under a new request id, its time counted from the first.
+class FidelityTest : public TuningRunTest {
+protected:
+    static constexpr std::size_t kView = 400, kSubset = 100;
+    static constexpr double kRating = 0.9;
+
+    // p of the measure with every match rated kRating.
+    static measure::Score real_score(const std::vector<store::PairRecord>& pairs) {
+        std::vector<measure::MatchError> errors;
+        const double e_t = 0.4 - std::log(2 / (1 - kRating) - 1) / (std::log(39.0) / 0.35);  // eps_t(e_t) = kRating
+        for (const auto& p : pairs) {
+            if (p.matched) errors.push_back({e_t, 0, 1});
+        }
+        return measure::score(errors, {0.4, 100, 0.5});
+    }
+    // The subset is every 4th pair of the view ("a|0", "a|4", ...); its outcomes in that order.
+    static std::vector<double> outcomes(const std::vector<store::PairRecord>& pairs) {
+        std::vector<double> out(kSubset, std::nan(""));
+        for (const auto& p : pairs) {
+            const std::size_t i = std::stoul(p.pair_id.substr(2));
+            if (i % 4 == 0 && i / 4 < kSubset && p.matched) out[i / 4] = kRating;
+        }
+        return out;
+    }
+    // n pairs "a|0", "a|stride", ...; the first `matched` of them matched.
+    static tuning::Reply answer_n(const tuning::Request& r, std::size_t n, std::size_t matched, std::size_t stride = 1) {
+        tuning::Reply reply;
+        reply.request_id = r.id;
+        reply.params = r.params;
+        for (std::size_t i = 0; i < n; ++i) {
+            store::PairRecord p;
+            p.pair_id = "a|" + std::to_string(i * stride);
+            p.matched = i < matched;
+            p.duration_s = 0.1;
+            reply.pairs.push_back(p);
+        }
+        return reply;
+    }
+    tuning::TuningRun make_mf(const experiment::Experiment& e) {
+        tuning::TuningOptions o{"", "mf", 15, tuning::Fidelity{"complete/4", kSubset, kView, &FidelityTest::outcomes}};
+        return tuning::TuningRun(e, o, &FidelityTest::real_score, 100);
+    }
+};
+
+TEST_F(FidelityTest, HopelessProposalsStopOnTheSubsetAndPromisingOnesGoOn) {
+    auto e = load("fidelity: {subset: 4}\nbudget: {evaluations: 5}\n");
+    ASSERT_EQ(e.fidelity_subset, 4);
+    auto run = make_mf(e);
+    const auto start = run.ask(1, 0.0).at(0);
+    EXPECT_EQ(start.view, "complete") << "the start point is always judged on the whole view";
+    tuning::EvaluationRecord rec;
+    ASSERT_EQ(run.tell(answer_n(start, kView, 200), 1.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.fidelity, 1);
+    const double incumbent = rec.p;
+
+    // No match on the subset, where the best matched half: cannot beat the best.
+    const auto hopeless = run.ask(1, 2.0).at(0);
+    EXPECT_EQ(hopeless.view, "complete/4");
+    ASSERT_EQ(run.tell(answer_n(hopeless, kSubset, 0, 4), 3.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.fidelity, 4);
+    EXPECT_DOUBLE_EQ(rec.p, 0.0);
+    EXPECT_EQ(run.summary().best, 0);
+
+    // The same pairs matched as the best did: it may beat it, so the whole view is asked.
+    const auto promising = run.ask(1, 4.0).at(0);
+    ASSERT_EQ(promising.view, "complete/4");
+    EXPECT_EQ(run.tell(answer_n(promising, kSubset, 50, 4), 5.0), ReplyOutcome::kContinued);
+    EXPECT_EQ(run.in_flight(), 1u);
+    EXPECT_EQ(run.summary().evaluations.size(), 2u);
+    const auto asked = run.ask(1, 5.0);
+    ASSERT_EQ(asked.size(), 1u) << "only the whole-view request: the slot is still taken";
+    const auto whole = asked[0];
+    EXPECT_EQ(whole.view, "complete");
+    EXPECT_NE(whole.id, promising.id);
+    EXPECT_EQ(run.set_key(whole.params), run.set_key(promising.params));
+    EXPECT_EQ(run.tell(answer_n(promising, kSubset, 50, 4), 5.5), ReplyOutcome::kNotInFlight);
+    ASSERT_EQ(run.tell(answer_n(whole, kView, 300), 9.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.fidelity, 1);
+    EXPECT_GT(rec.p, incumbent);
+    EXPECT_DOUBLE_EQ(rec.wall_s, 5.0) << "both stages of the proposal";
+    EXPECT_DOUBLE_EQ(rec.elapsed_s, 9.0);
+    EXPECT_EQ(run.summary().best, 2);
+
+    // The run directory keeps the fidelity; a resumed run has the same best and goes on in time,
+    // judging by the unpaired bound until a whole-view evaluation gives it the best's pairs.
+    tuning::RunDirectory files(dir_ / "mf", e, {"core", "d", "dn", "m", "v", "now"});
+    files.write_results(run.summary());
+    const auto trials = experiment::read_trials_csv(files.trials_file(), e.space);
+    ASSERT_EQ(trials.size(), 3u);
+    EXPECT_EQ(trials[1].fidelity, 4);
+    EXPECT_DOUBLE_EQ(trials[2].elapsed_s, 9.0);
+    auto resumed = make_mf(e);
+    resumed.resume(trials);
+    EXPECT_EQ(resumed.summary().best, 2);
+    const auto next = resumed.ask(1, 100.0).at(0);
+    EXPECT_EQ(next.view, "complete/4");
+    ASSERT_EQ(resumed.tell(answer_n(next, kSubset, 0, 4), 101.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.fidelity, 4);
+    EXPECT_DOUBLE_EQ(rec.elapsed_s, 10.0);
+}
+
+TEST_F(FidelityTest, ASubsetEstimateIsNeverTheBestWhateverItsP) {
+    auto e = load();
+    std::vector<experiment::EvaluationRecord> records(3);
+    records[0].p = 0.5;
+    records[1].p = 0.99;
+    records[1].fidelity = 8;
+    records[2].p = 0.6;
+    records[2].failed = true;
+    EXPECT_EQ(experiment::best_index(e, records), 0);
+    records[0].fidelity = 8;
+    EXPECT_EQ(experiment::best_index(e, records), -1);
+}
+
+TEST_F(FidelityTest, WithoutAnIncumbentOrWithASubsetAsLargeAsTheViewEverythingIsWhole) {
+    auto e = load("fidelity: {subset: 4}\nbudget: {evaluations: 5}\n");
+    e.start_points.clear();
+    auto run = make_mf(e);
+    const auto first = run.ask(1, 0.0).at(0);
+    EXPECT_EQ(first.view, "complete") << "nothing to beat yet";
+    ASSERT_EQ(run.tell(answer_n(first, kView, 0), 1.0), ReplyOutcome::kAccepted);
+    EXPECT_EQ(run.summary().best, 0);
+
+    tuning::TuningOptions o{"", "same", 15, tuning::Fidelity{"complete/4", kView, kView, &FidelityTest::outcomes}};
+    tuning::TuningRun whole(load("fidelity: {subset: 4}\n"), o, &FidelityTest::real_score, 100);
+    const auto s = whole.ask(1, 0.0).at(0);
+    ASSERT_EQ(whole.tell(answer_n(s, kView, 10), 1.0), ReplyOutcome::kAccepted);
+    EXPECT_EQ(whole.ask(1, 1.0).at(0).view, "complete");
+}
+
+TEST_F(FidelityTest, ABadFidelityNamesTheKey) {
+    for (const char* bad : {"{subset: 1}", "{subset: x}", "{z: 2}", "{subset: 4, z: -1}", "{subset: 4, k: 2}", "8"}) {
+        try {
+            load(std::string("fidelity: ") + bad + "\n");
+            ADD_FAILURE() << "accepted fidelity " << bad;
+        } catch (const params::ConfigError& err) {
+            EXPECT_NE(std::string(err.what()).find("fidelity"), std::string::npos) << err.what();
+        }
+    }
+}
+
 }  // namespace
 }  // namespace maptune
