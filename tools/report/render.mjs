@@ -52,7 +52,9 @@ function historyFigure() {
   if (runs.length === 1) {
     const run = runs[0];
     // A failed black-box evaluation has no value (a matcher's failure scores p = 0).
-    const values = run.evaluations.map((e) => ({ ...e, status: e.failed ? 'failed' : 'ok', p: e.failed && blackBox(run) ? null : e.p }));
+    // Multi-fidelity: a proposal stopped on the subset shows the subset's estimate of p.
+    const status = (e) => (e.failed ? 'failed' : (e.fidelity || 1) > 1 ? `subset 1/${e.fidelity}: estimate` : 'ok');
+    const values = run.evaluations.map((e) => ({ ...e, status: status(e), p: e.failed && blackBox(run) ? null : e.p }));
     const layers = [
       {
         name: 'history_points',
@@ -62,7 +64,7 @@ function historyFigure() {
           y: { field: 'p', type: 'quantitative', title: valueName(run), scale: valueScale(run) },
           color: { field: 'origin', type: 'nominal', title: 'origin' },
           shape: { field: 'status', type: 'nominal', title: 'status' },
-          tooltip: [{ field: 'evaluation' }, { field: 'p', format: '.4f' }, { field: 'm' }, { field: 'origin' }, { field: 'error' }],
+          tooltip: [{ field: 'evaluation' }, { field: 'p', format: '.4f' }, { field: 'm' }, { field: 'origin' }, { field: 'status' }, { field: 'error' }],
         },
       },
       {
