@@ -7,6 +7,27 @@
 
 namespace maptune::measure {
 
+namespace {
+
+// p from v and the mean rating: eps is the mean rating clamped at 0 (SPEC §2).
+double combine(double v, double mean_rating, double w_v) { return w_v * v + (1.0 - w_v) * std::max(0.0, mean_rating); }
+
+// p of outcomes (NaN: no match) over the pairs `index` picks; m* already scaled to them.
+template <class Index>
+double p_of_outcomes(const std::vector<double>& outcomes, const Index& index, std::size_t n, double m_star,
+                     double w_v) {
+    double m = 0, sum = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double r = outcomes[index(i)];
+        if (std::isnan(r)) continue;
+        m += 1;
+        sum += r;
+    }
+    return combine(v_of_m(m, m_star), m > 0 ? sum / m : 0.0, w_v);
+}
+
+}  // namespace
+
 double v_of_m(double m, double m_star) {
     const double a = m_star / 9.0;
     return m / (a + m);
@@ -55,7 +76,7 @@ Score score(const std::vector<MatchError>& errors, const MeasureSettings& settin
         s.mean_rating = sum / static_cast<double>(s.m);
         s.eps = std::max(0.0, s.mean_rating);
     }
-    s.p = settings.w_v * s.v + (1.0 - settings.w_v) * s.eps;
+    s.p = combine(s.v, s.eps, settings.w_v);
     return s;
 }
 
@@ -111,28 +132,10 @@ Extrapolation extrapolate(const std::vector<double>& ratings, std::size_t n, std
     Extrapolation out;
     out.v = v_of_m(q * NN, full.m_star);
     out.eps = std::max(0.0, mean);
-    out.p = w * out.v + (1 - w) * out.eps;
-    out.p_upper = std::max(out.p, w * v_of_m(q_upper * NN, full.m_star) + (1 - w) * std::max(0.0, mean_upper));
+    out.p = combine(out.v, mean, w);
+    out.p_upper = std::max(out.p, combine(v_of_m(q_upper * NN, full.m_star), mean_upper, w));
     return out;
 }
-
-namespace {
-
-// p of outcomes (NaN: no match) over the pairs `index` picks; m* already scaled to them.
-template <class Index>
-double p_of_outcomes(const std::vector<double>& outcomes, const Index& index, std::size_t n, double m_star,
-                     double w_v) {
-    double m = 0, sum = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-        const double r = outcomes[index(i)];
-        if (std::isnan(r)) continue;
-        m += 1;
-        sum += r;
-    }
-    return w_v * v_of_m(m, m_star) + (1 - w_v) * (m > 0 ? std::max(0.0, sum / m) : 0.0);
-}
-
-}  // namespace
 
 PairedDifference paired_difference(const std::vector<double>& x, const std::vector<double>& incumbent,
                                    std::size_t N, const MeasureSettings& full, double z, double factor_x,

@@ -6,6 +6,19 @@
 
 namespace maptune::tuning {
 
+namespace {
+
+// Mean seconds per pair of an answer, to 0.1 ms as trials.csv keeps it: a resumed run tells its
+// model the same objective.
+double mean_pair_seconds(const std::vector<store::PairRecord>& pairs) {
+    if (pairs.empty()) return 0.0;
+    double seconds = 0;
+    for (const auto& pair : pairs) seconds += pair.duration_s;
+    return std::round(seconds / static_cast<double>(pairs.size()) * 1e4) / 1e4;
+}
+
+}  // namespace
+
 TuningRun::TuningRun(experiment::Experiment experiment, TuningOptions options, Scorer scorer, double m_star)
     : experiment_(std::move(experiment)),
       options_(std::move(options)),
@@ -81,10 +94,7 @@ bool TuningRun::subset_passes(const Reply& reply, EvaluationRecord& rec) const {
     }
     const measure::MeasureSettings full{experiment_.e_star, summary_.m_star, experiment_.w_v};
     const measure::Extrapolation x = measure::extrapolate(ratings, f.pairs, f.view_pairs, full, experiment_.fidelity_z);
-    double seconds = 0;
-    for (const auto& pair : reply.pairs) seconds += pair.duration_s;
-    rec.pair_s = reply.pairs.empty() ? 0.0
-                                     : std::round(seconds / static_cast<double>(reply.pairs.size()) * 1e4) / 1e4;
+    rec.pair_s = mean_pair_seconds(reply.pairs);
     if (summary_.best < 0) return true;
     const EvaluationRecord& best = summary_.evaluations[static_cast<std::size_t>(summary_.best)];
     bool passes = false;
@@ -207,12 +217,7 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
             rec.v = s.v;
             rec.eps = s.eps;
             rec.m = s.m;
-            double seconds = 0;
-            for (const auto& pair : reply.pairs) seconds += pair.duration_s;
-            // To 0.1 ms, as trials.csv keeps it: a resumed run tells its model the same objective.
-            rec.pair_s = reply.pairs.empty()
-                             ? 0.0
-                             : std::round(seconds / static_cast<double>(reply.pairs.size()) * 1e4) / 1e4;
+            rec.pair_s = mean_pair_seconds(reply.pairs);
         } catch (const std::exception& ex) {
             error = std::string("cannot score the reply: ") + ex.what();
         }
