@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  build-essential cmake pkg-config git ca-certificates python3
+  build-essential cmake pkg-config git ca-certificates openssl python3
   libeigen3-dev libsuitesparse-dev liblbfgspp-dev
   libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   libsqlite3-dev libprotobuf-dev protobuf-compiler

@@ -76,6 +76,8 @@ int main(int argc, char** argv) {
     app.add_option("--requests", requests, "concurrent observation requests (default: 4)");
     app.add_option("--submaps", submaps, "submaps of the one-run dataset: tasks per request = C(n,2) (default: 40)");
     app.add_option("--data", data, "where to generate the dataset (kept between runs)");
+    std::string security;
+    app.add_option("--dds-security", security, "DDS-Security PKI (scripts/make-pki.sh): measure its cost");
     CLI11_PARSE(app, argc, argv);
 
     const fs::path ds_dir = fs::path(data) / ("lab-" + std::to_string(submaps));
@@ -88,16 +90,19 @@ int main(int argc, char** argv) {
     const auto space = params::ParameterSpace::load(std::string(MAPTUNE_SOURCE_DIR_BENCH) + "/configs/spaces/lru_matcher.yaml");
     std::random_device rd;
     const int domain = std::uniform_int_distribution<int>(1, 200)(rd);
-    auto participant = [&](const std::string& name) {
-        return std::make_unique<maptune::dds::Participant>(maptune::dds::ParticipantOptions{domain, "", "maptune_loopback", name});
+    auto participant = [&](const std::string& name, const std::string& role) {
+        maptune::dds::ParticipantOptions po{domain, "", "maptune_loopback", name};
+        po.security_dir = security;
+        po.identity = role;
+        return std::make_unique<maptune::dds::Participant>(po);
     };
     const fs::path tmp = fs::temp_directory_path() / ("maptune_dispatch_" + std::to_string(domain));
     fs::remove_all(tmp);
     fs::create_directories(tmp);
 
-    auto server_p = participant("server");
+    auto server_p = participant("server", "dataset_server");
     services::DatasetServer server(*server_p, {{ds_dir}, 512 * 1024, ""});
-    auto db_p = participant("sample_db");
+    auto db_p = participant("sample_db", "sample_db");
     services::DatasetMirror db_mirror(*db_p, tmp / "cache", "db");
     db_mirror.add_local(ds_dir);
     services::SampleDbOptions o;
@@ -111,14 +116,14 @@ int main(int argc, char** argv) {
     std::vector<std::unique_ptr<TimedBackend>> backends;
     std::vector<std::unique_ptr<services::MatcherWorker>> workers;
     for (int i = 0; i < n_workers; ++i) {
-        ps.push_back(participant("w" + std::to_string(i)));
+        ps.push_back(participant("w" + std::to_string(i), "worker"));
         mirrors.push_back(std::make_unique<services::DatasetMirror>(*ps.back(), tmp / "cache", "w" + std::to_string(i)));
         mirrors.back()->add_local(ds_dir);
         backends.push_back(std::make_unique<TimedBackend>(*mirrors.back(), space));
         workers.push_back(std::make_unique<services::MatcherWorker>(*ps.back(), *backends.back(),
                                                                     services::WorkerOptions{"w" + std::to_string(i), 1, 0.5}));
     }
-    auto client_p = participant("client");
+    auto client_p = participant("client", "optimizer");
     std::mutex m;
     int replies = 0;
     const auto replies_sub = client_p->reader<msg::v1::ObservationReplyPubSubType>(maptune::dds::topics::kObservationReply, maptune::dds::TopicQos::kReliable,

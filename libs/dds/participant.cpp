@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -44,6 +45,38 @@ bool load_profiles_once(const std::string& file) {
 }
 
 }  // namespace
+
+std::vector<std::pair<std::string, std::string>> security_properties(const ParticipantOptions& options) {
+    if (options.security_dir.empty()) return {};
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::absolute(options.security_dir);
+    if (options.identity.empty()) {
+        throw DdsError("DDS security directory " + dir.string() + " given without an identity");
+    }
+    const fs::path id = dir / options.identity;
+    auto file = [&](const fs::path& p) {
+        std::error_code ec;
+        if (!fs::is_regular_file(p, ec)) {
+            throw DdsError("DDS security: " + p.string() + " is missing (identity '" + options.identity +
+                           "'; make one with scripts/make-pki.sh " + dir.string() + " --add " +
+                           options.identity + " --role ROLE)");
+        }
+        return "file://" + p.string();
+    };
+    const std::string auth = "dds.sec.auth.builtin.PKI-DH.";
+    const std::string access = "dds.sec.access.builtin.Access-Permissions.";
+    return {
+        {"dds.sec.auth.plugin", "builtin.PKI-DH"},
+        {auth + "identity_ca", file(dir / "ca.pem")},
+        {auth + "identity_certificate", file(id / "cert.pem")},
+        {auth + "private_key", file(id / "key.pem")},
+        {"dds.sec.access.plugin", "builtin.Access-Permissions"},
+        {access + "permissions_ca", file(dir / "ca.pem")},
+        {access + "governance", file(dir / "governance.p7s")},
+        {access + "permissions", file(id / "permissions.p7s")},
+        {"dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC"},
+    };
+}
 
 void apply_qos(TopicQos qos, fdds::DataWriterQos& w) {
     switch (qos) {
@@ -110,10 +143,19 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
                        (options.profiles_file.empty() ? "the built-in profiles" : options.profiles_file));
     }
     qos.name(options.name);
+    const auto security = security_properties(options);
+    for (const auto& [key, value] : security) qos.properties().properties().emplace_back(key, value);
+    if (!security.empty()) identity_ = options.identity;
     participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(options.domain_id), qos);
     if (participant_ == nullptr) {
-        throw DdsError("cannot create a DDS participant on domain " +
-                       std::to_string(options.domain_id));
+        // With security on, Fast DDS refuses an identity its CA did not sign, an expired
+        // certificate or permissions that do not match it (its log says which).
+        throw DdsError("cannot create a DDS participant on domain " + std::to_string(options.domain_id) +
+                       (security.empty() ? std::string()
+                                         : " with DDS-Security identity '" + options.identity + "' of " +
+                                               options.security_dir +
+                                               " (certificate not valid now, not signed by ca.pem, or "
+                                               "permissions not matching it)"));
     }
     publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
     subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
@@ -137,7 +179,7 @@ fdds::Topic* Participant::topic_for(const std::string& topic, fdds::TopicDataTyp
         support.register_type(participant_);
     }
     auto* t = participant_->create_topic(topic, support.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
-    if (t == nullptr) throw DdsError("cannot create DDS topic '" + topic + "'");
+    if (t == nullptr) throw DdsError("cannot create DDS topic '" + topic + "'" + denied_hint("use"));
     topics_[topic] = t;
     return t;
 }

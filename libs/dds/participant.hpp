@@ -20,6 +20,8 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace maptune::dds {
 
@@ -35,7 +37,17 @@ struct ParticipantOptions {
     std::string profiles_file;   // Fast DDS XML; empty: the built-in loopback profile
     std::string profile = "maptune_loopback";  // participant profile in that XML
     std::string name = "maptune";
+    // DDS-Security (scripts/make-pki.sh): empty = off. With a directory, the participant
+    // authenticates as `identity` (a subdirectory holding cert.pem, key.pem, permissions.p7s)
+    // and the directory's ca.pem and governance.p7s decide whom it talks to and what it may
+    // publish; services default `identity` to their role.
+    std::string security_dir;
+    std::string identity;
 };
+
+// The Fast DDS properties that switch the builtin security plugins on for `options`; throws
+// DdsError naming the first missing file. Empty when security is off.
+std::vector<std::pair<std::string, std::string>> security_properties(const ParticipantOptions& options);
 
 // Delivery semantics of a topic.
 enum class TopicQos {
@@ -147,7 +159,7 @@ public:
         eprosima::fastdds::dds::DataWriterQos wq = publisher_->get_default_datawriter_qos();
         apply_qos(qos, wq);
         auto* w = publisher_->create_datawriter(t, wq);
-        if (w == nullptr) throw DdsError("cannot create a writer on topic '" + topic + "'");
+        if (w == nullptr) throw DdsError("cannot create a writer on topic '" + topic + "'" + denied_hint("publish"));
         return Writer<typename PubSubType::type>(w);
     }
 
@@ -161,7 +173,7 @@ public:
         auto gate = std::make_shared<ReaderGate>();
         auto listener = std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample), gate);
         auto* r = subscriber_->create_datareader(t, rq, listener.get());
-        if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'");
+        if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'" + denied_hint("read"));
         std::lock_guard<std::mutex> lock(mutex_);
         listeners_.push_back(std::move(listener));
         return Subscription(std::move(gate));
@@ -172,7 +184,14 @@ private:
     eprosima::fastdds::dds::Topic* topic_for(const std::string& topic,
                                             eprosima::fastdds::dds::TopicDataType* type);
 
+    // With DDS-Security, why an entity may be refused: the identity's permissions.
+    std::string denied_hint(const std::string& verb) const {
+        return identity_.empty() ? std::string()
+                                 : " (DDS-Security: identity '" + identity_ + "' may not " + verb + " it)";
+    }
+
     int domain_id_ = 0;
+    std::string identity_;  // set when DDS-Security is on
     eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
     eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
     eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;

@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> dirs;
     app.add_option("--dataset", dirs, "dataset directory (repeatable)")->required()->check(CLI::ExistingDirectory);
     app.add_option("--chunk-bytes", options.chunk_bytes, "file chunk size in bytes (default: 524288)");
-    add_dds_options(app, dds);
+    add_dds_options(app, dds, "dataset_server");
     CLI11_PARSE(app, argc, argv);
     install_stop_signals();
     for (const auto& d : dirs) options.datasets.emplace_back(d);

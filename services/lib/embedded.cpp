@@ -104,7 +104,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         return 2;
     }
     const int n_workers = options.external_workers ? 0 : options.workers > 0 ? options.workers : e.workers;
-    std::cout << "run directory " << root.string() << ", store " << db << ", DDS domain " << domain << " (loopback), ";
+    std::cout << "run directory " << root.string() << ", store " << db << ", DDS domain " << domain << " (loopback" << (options.dds_security.empty() ? "" : ", DDS-Security") << "), ";
     if (options.external_workers) {
         std::cout << "external workers of matcher '" << matcher_id << "' (design space " << e.space.hash()
                   << "): start them with --domain " << domain << "; waiting up to " << options.wait_s << " s";
@@ -118,15 +118,19 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         result->db_path = db;
     }
 
-    auto participant = [&](const std::string& name) {
-        return std::make_unique<dds::Participant>(dds::ParticipantOptions{domain, "", "maptune_loopback", name});
+    // Each service authenticates as its role (with --dds-security), as separate processes do.
+    auto participant = [&](const std::string& name, const std::string& role) {
+        dds::ParticipantOptions o{domain, "", "maptune_loopback", name};
+        o.security_dir = options.dds_security;
+        o.identity = role;
+        return std::make_unique<dds::Participant>(o);
     };
     int exit_code = 0;
     try {
-        auto server_p = participant("dataset_server");
+        auto server_p = participant("dataset_server", "dataset_server");
         DatasetServer server(*server_p, {{e.dataset_dir}, 512 * 1024, ""});
 
-        auto db_p = participant("sample_db");
+        auto db_p = participant("sample_db", "sample_db");
         DatasetMirror db_mirror(*db_p, root / "cache", "sample_db");
         SampleDbOptions db_options;
         db_options.store_path = db;
@@ -145,7 +149,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         std::vector<std::unique_ptr<WorkerBackend>> backends;
         std::vector<std::unique_ptr<MatcherWorker>> workers;
         for (int i = 0; i < n_workers; ++i) {
-            worker_ps.push_back(participant("worker" + std::to_string(i)));
+            worker_ps.push_back(participant("worker" + std::to_string(i), "worker"));
             mirrors.push_back(std::make_unique<DatasetMirror>(*worker_ps.back(), root / "cache",
                                                               "worker" + std::to_string(i)));
             // Embedded workers read the dataset directory directly: no copy.
@@ -169,7 +173,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
             experiment::Experiment seeded = e;
             seeded.seed = seed;
             if (repeated) std::cout << "\n== seed " << seed << ": " << run_dir.string() << std::endl;
-            auto opt_p = participant("optimizer");
+            auto opt_p = participant("optimizer", "optimizer");
             DatasetMirror opt_mirror(*opt_p, root / "cache", "optimizer");
             OptimizerServiceOptions opt_options;
             opt_options.experiment = seeded;

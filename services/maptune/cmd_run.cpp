@@ -2,6 +2,7 @@
 #ifdef MAPTUNE_HAVE_SERVICES
 #include "commands.hpp"
 #include "params/cli_range.hpp"
+#include "dds_options.hpp"
 #include "embedded.hpp"
 #include "runtime.hpp"
 #include "validate_cli.hpp"
@@ -62,6 +63,7 @@ void add_run_command(CLI::App& app, int& exit_code) {
         ->check(CLI::Range(1, 64));
     cmd->add_option("--domain", opt->domain_id, "DDS domain id, 0..232 (default: random in 1..200)")
         ->check(CLI::Range(0, 232));
+    services::add_dds_security_options(*cmd, opt->dds_security, nullptr);
     cmd->add_flag("--analytic", opt->analytic,
                   "use the analytic test matcher instead of the PCL pipeline (for trying things fast)");
     cmd->add_flag("--external-workers", opt->external_workers,

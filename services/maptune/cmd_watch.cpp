@@ -33,7 +33,7 @@ void add_watch_command(CLI::App& app, int& exit_code) {
     auto* cmd = app.add_subcommand("watch",
                                    "Print best-so-far parameters live as the optimizer publishes them "
                                    "(a late start prints the current best at once).");
-    services::add_dds_options(*cmd, opt->dds);
+    services::add_dds_options(*cmd, opt->dds, "watch");
     cmd->add_option("--experiment", opt->experiment, "only this experiment id (default: all)");
     cmd->add_flag("--once", opt->once, "exit after the first update");
     cmd->add_option("--timeout", opt->timeout_s, "exit after this many seconds, 0 = never (default: 0)");

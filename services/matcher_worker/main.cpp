@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
     app.add_option("--delay", analytic_options.delay_per_pair_s, "analytic: seconds per pair (default: 0)");
     app.add_option("--failure-rate", analytic_options.failure_rate, "analytic: task failure probability, 0..1 (default: 0)")
         ->check(maptune::params::finite_range(0.0, 1.0));
-    add_dds_options(app, dds);
+    add_dds_options(app, dds, "worker");
     CLI11_PARSE(app, argc, argv);
     install_stop_signals();
     try {

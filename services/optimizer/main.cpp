@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
     app.add_option("--resend", options.resend_s, "seconds before an unanswered request is sent again (default: 15)")
         ->check(maptune::params::finite_range(0.1, 3600.0));
     app.add_option("--cache", cache, "directory for fetched dataset metadata (default: /tmp/maptune-cache)");
-    add_dds_options(app, dds);
+    add_dds_options(app, dds, "optimizer");
     CLI11_PARSE(app, argc, argv);
     install_stop_signals();
     try {

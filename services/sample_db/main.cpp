@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
     app.add_option("--unserved-timeout", options.scheduler.unserved_timeout_s,
                    "seconds a request may wait with no worker for its matcher and space before it is answered with an error, <= 0 = forever (default: 300)");
     app.add_option("--cache", cache, "directory for fetched dataset metadata (default: /tmp/maptune-cache)");
-    add_dds_options(app, dds);
+    add_dds_options(app, dds, "sample_db");
     CLI11_PARSE(app, argc, argv);
     options.scheduler.locality = !no_locality;
     install_stop_signals();

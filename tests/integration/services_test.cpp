@@ -236,6 +236,43 @@ TEST_F(ServicesTest, LateWatchSubscriberGetsTheCurrentBestAtOnce) {
     EXPECT_NE(watch.output().find("best p="), std::string::npos) << watch.output();
 }
 
+// Issue 14: the deployment with DDS-Security on (scripts/make-pki.sh): every service
+// authenticates as its role and the run completes; a worker without a certificate on the same
+// domain — one that fails every task it gets — never gets one, and a watch without a
+// certificate sees no best while the secured watch does.
+TEST_F(ServicesTest, SecuredDeploymentIgnoresParticipantsWithoutCertificates) {
+    const std::string pki = (dir_ / "pki").string();
+    ASSERT_EQ(std::system(("bash " + kSource + "/scripts/make-pki.sh " + pki + " >/dev/null").c_str()), 0);
+    const std::vector<std::string> sec{"--dds-security", pki};
+    auto secured = [&](const std::string& name, std::vector<std::string> argv) -> Process& {
+        argv.insert(argv.end(), sec.begin(), sec.end());
+        return start(name, argv);
+    };
+    secured("dataset_server", {MAPTUNE_BIN_DATASET_SERVER, "--dataset", lab().string()});
+    Process& db_p = secured("sample_db", {MAPTUNE_BIN_SAMPLE_DB, "--db", db(), "--lease", "2", "--shard-size", "2",
+                                          "--cache", (dir_ / "cache_db").string()});
+    secured("w1", {MAPTUNE_BIN_WORKER, "--analytic", "--id", "w1", "--delay", "0.02", "--cache",
+                   (dir_ / "cache_w1").string()});
+    Process& rogue = start("rogue", {MAPTUNE_BIN_WORKER, "--analytic", "--id", "rogue", "--failure-rate", "1",
+                                     "--cache", (dir_ / "cache_rogue").string()});
+    ASSERT_TRUE(poll([&] { return rogue.output().find("ready on domain") != std::string::npos; }, 30))
+        << rogue.output();
+    Process& opt = secured("optimizer", {MAPTUNE_BIN_OPTIMIZER, "--experiment", experiment(24), "--run-dir",
+                                         run_dir().string(), "--matcher", "analytic", "--dataset-id", dataset_id(),
+                                         "--wait", "60", "--cache", (dir_ / "cache_opt").string()});
+    ASSERT_TRUE(poll([&] { return trials() >= 2; }, 120)) << opt.output();
+    Process& watch = secured("watch", {MAPTUNE_BIN_CLI, "watch", "--once", "--timeout", "30", "--experiment", "itest"});
+    Process& blind = start("blind", {MAPTUNE_BIN_CLI, "watch", "--once", "--timeout", "5", "--experiment", "itest"});
+    EXPECT_EQ(watch.wait(40), 0) << watch.output();
+    EXPECT_NE(watch.output().find("best p="), std::string::npos) << watch.output();
+    EXPECT_NE(blind.wait(20), 0) << blind.output();
+    EXPECT_EQ(blind.output().find("best p="), std::string::npos) << blind.output();
+    ASSERT_EQ(opt.wait(240), 0) << opt.output();
+    EXPECT_EQ(trials(), 24u);
+    expect_store_matches_direct_computation();
+    EXPECT_EQ(db_p.output().find("worker rogue"), std::string::npos) << db_p.output();
+}
+
 TEST_F(ServicesTest, KilledWorkerShardIsReassignedAndTheObservationIsUnchanged) {
     dataset_server();
     sample_db("1");
