@@ -7,13 +7,16 @@
 # the current best at once), then stops and removes the containers and the network (images
 # and volumes are kept; the run directory and the logs are also copied to runs/podman-demo/).
 #
-#   bash docker/run-podman.sh [--evaluations N] [--timeout SECONDS] [--keep-runs]
+#   bash docker/run-podman.sh [--evaluations N] [--timeout SECONDS] [--keep-runs] [--secure]
 #
 #   --evaluations N  budget of the tuning run (default: the demo experiment's, 20)
 #   --timeout S      give up when the optimizer has not finished after S seconds (default 3600)
 #   --keep-runs      keep the `runs` volume of an earlier run: the optimizer resumes it and
 #                    sample_db answers repeated parameter sets from its store (default: start
 #                    from an empty `runs` volume, so the run really tunes)
+#   --secure         DDS-Security on (docker/compose.secure.yaml, PKI in docker/pki made by
+#                    scripts/make-pki.sh if missing); also checks that a `watch` without a
+#                    certificate on the same network sees nothing
 #
 # Exits non-zero unless the run produced best_params.yaml.
 set -euo pipefail
@@ -21,12 +24,14 @@ set -euo pipefail
 evaluations=""
 timeout_s=3600
 keep_runs=0
+secure=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --evaluations) evaluations=$2; shift 2 ;;
     --timeout) timeout_s=$2; shift 2 ;;
     --keep-runs) keep_runs=1; shift ;;
-    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
+    --secure) secure=1; shift ;;
+    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
     *) echo "run-podman: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -40,6 +45,10 @@ cd "$(dirname "$0")/.."
 repo=$PWD
 project=maptune
 compose=(podman-compose -p "$project" -f docker/compose.yaml)
+if [ "$secure" -eq 1 ]; then
+  compose+=(-f docker/compose.secure.yaml)
+  [ -f docker/pki/ca.pem ] || bash scripts/make-pki.sh docker/pki
+fi
 started=$SECONDS
 phase_start=$SECONDS
 phase() { echo; echo "=== $(date +%T) $*"; phase_start=$SECONDS; }
@@ -216,6 +225,16 @@ while :; do
     watch_out=$(printf '%s\n' "$watch_out" | grep -v -e '^podman ' -e '^exit code:' -e "^\['podman'" -e '^using podman' || true)
     printf '%s\n' "$watch_out" | sed 's/^/    watch| /'
     [ "$watch_ok" -eq 1 ] || echo "run-podman: watch printed no update within 60 s" >&2
+    if [ "$secure" -eq 1 ]; then
+      # The same watch without a certificate (no MAPTUNE_DDS_SECURITY) must see nothing.
+      echo "$(date +%T) maptune watch --once without a certificate (expected: no update):"
+      if "${compose[@]}" run --rm --no-deps -T -e MAPTUNE_DDS_SECURITY= watch maptune watch --once --timeout 20 \
+          </dev/null >/dev/null 2>&1; then
+        echo "run-podman: a watch without a certificate received the best" >&2
+        exit 1
+      fi
+      echo "    no update in 20 s: refused"
+    fi
   fi
   if [ "$SECONDS" -ge "$deadline" ]; then
     echo "run-podman: the optimizer has not finished after ${timeout_s} s" >&2
@@ -241,9 +260,10 @@ if [ ! -s "$runs/demo/best_params.yaml" ]; then
 fi
 cat "$runs/demo/best_params.yaml"
 echo "trials.csv: $(wc -l < "$trials") lines (header + evaluations)"
-# trials.csv columns: evaluation,p,m,v,eps,failed,from_store,wall_s,pair_s,origin,...
-awk -F, 'NR > 1 && $10 == "start" && !b { printf "baseline p = %s (evaluation %s, the start point)\n", $2, $1; b = 1 }
-         NR > 1 && $6 == 0 && (best == "" || $2 + 0 > best + 0) { best = $2; e = $1 }
+# trials.csv columns by name (evaluation, p, failed, origin, ...).
+awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) c[$i] = i; next }
+         $c["origin"] == "start" && !b { printf "baseline p = %s (evaluation %s, the start point)\n", $c["p"], $1; b = 1 }
+         $c["failed"] == 0 && (best == "" || $c["p"] + 0 > best + 0) { best = $c["p"]; e = $1 }
          END { if (best != "") printf "best p     = %s (evaluation %s)\n", best, e }' "$trials"
 [ -n "$watch_out" ] && { echo "watch (late subscriber):"; printf '%s\n' "$watch_out" | sed 's/^/    /'; }
 mkdir -p "$out"
