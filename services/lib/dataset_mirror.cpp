@@ -2,6 +2,7 @@
 
 #include "dataset/io.hpp"
 #include "dds/convert.hpp"
+#include "dds/validate.hpp"
 #include "runtime.hpp"
 
 namespace maptune::services {
@@ -27,6 +28,7 @@ DatasetMirror::DatasetMirror(dds::Participant& participant, fs::path cache_root,
     subscriptions_.push_back(participant.reader<v1::DatasetAnnouncementPubSubType>(
         dds::topics::kDatasetAnnouncement, dds::TopicQos::kLatched,
         [this](const v1::DatasetAnnouncement& a) {
+            if (auto bad = dds::check(a); !bad.empty()) return refusals_.refused("dataset_announcement", a.server_id(), bad);
             std::lock_guard<std::mutex> lock(mutex_);
             announced_[a.dataset_id()] = a;
             cv_.notify_all();
@@ -36,6 +38,14 @@ DatasetMirror::DatasetMirror(dds::Participant& participant, fs::path cache_root,
             std::lock_guard<std::mutex> lock(mutex_);
             const auto it = transfers_.find(c.request_id());
             if (it == transfers_.end()) return;  // another client's transfer
+            // A malformed chunk (e.g. a count that would allocate without bound) is dropped;
+            // the transfer asks again after its quiet time.
+            if (auto bad = dds::check(c); !bad.empty()) return refusals_.refused("file_chunk", "", bad);
+            // Every chunk of a transfer must agree on the count.
+            if (it->second.count != 0 && c.count() != it->second.count) {
+                return refusals_.refused("file_chunk", "", "count: " + std::to_string(c.count()) + " after " +
+                                                               std::to_string(it->second.count));
+            }
             Transfer& t = it->second;
             if (!c.error().empty()) {
                 t.error = c.error();

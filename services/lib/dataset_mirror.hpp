@@ -16,6 +16,7 @@
 #include "dataset/dataset.hpp"
 #include "dds/participant.hpp"
 #include "maptunePubSubTypes.h"
+#include "refusals.hpp"
 
 namespace maptune::services {
 
@@ -71,6 +72,7 @@ private:
     std::map<std::string, Transfer> transfers_;  // by request id
     std::uint64_t next_request_ = 1;
     std::size_t fetched_ = 0;
+    RefusalLog refusals_{"dataset_mirror"};
     // Last, so destroyed first: no callback runs once the rest starts to go away.
     std::vector<dds::Subscription> subscriptions_;
 };

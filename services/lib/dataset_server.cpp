@@ -5,6 +5,7 @@
 #include "dataset/dataset.hpp"
 #include "dataset/io.hpp"
 #include "dds/convert.hpp"
+#include "dds/validate.hpp"
 #include "runtime.hpp"
 
 namespace maptune::services {
@@ -112,6 +113,11 @@ void DatasetServer::answer(const v1::FileRequest& request) {
         std::lock_guard<std::mutex> lock(mutex_);
         ++refused_;
     };
+    if (auto bad = dds::check(request); !bad.empty()) {
+        refusals_.refused("file_request", "", bad);
+        if (request.request_id().size() > dds::MessageLimits::kId) return;  // no id to answer to
+        return refuse("invalid request: " + bad);
+    }
     const auto it = datasets_.find(request.dataset_id());
     if (it == datasets_.end()) return refuse("unknown dataset '" + request.dataset_id() + "'");
     const auto& files = it->second.announcement.files();

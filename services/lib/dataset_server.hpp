@@ -13,6 +13,7 @@
 
 #include "dds/participant.hpp"
 #include "maptunePubSubTypes.h"
+#include "refusals.hpp"
 
 namespace maptune::services {
 
@@ -53,6 +54,7 @@ private:
     std::deque<msg::v1::FileRequest> queue_;
     bool stop_ = false;
     std::size_t served_ = 0, refused_ = 0;
+    RefusalLog refusals_{"dataset_server"};
     std::thread thread_;
     // Last, so destroyed first: no callback runs once the rest starts to go away.
     std::vector<dds::Subscription> subscriptions_;

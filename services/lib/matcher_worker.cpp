@@ -1,6 +1,7 @@
 #include "matcher_worker.hpp"
 
 #include "dds/convert.hpp"
+#include "dds/validate.hpp"
 #include "runtime.hpp"
 
 namespace maptune::services {
@@ -17,6 +18,17 @@ MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backe
     subscriptions_.push_back(participant.reader<v1::EvaluationTaskPubSubType>(
         dds::topics::kEvaluationTask, dds::TopicQos::kReliable, [this](const v1::EvaluationTask& t) {
             if (t.worker_id() != options_.worker_id) return;
+            if (auto bad = dds::check(t); !bad.empty()) {
+                // Answered at once, so sample_db counts a failed attempt instead of waiting.
+                refusals_.refused("evaluation_task", "", bad);
+                v1::TaskResult r;
+                if (t.task_id().size() <= dds::MessageLimits::kId) r.task_id(t.task_id());
+                r.worker_id(options_.worker_id);
+                r.ok(false);
+                r.error("invalid task: " + bad);
+                results_.write(r);
+                return;
+            }
             std::lock_guard<std::mutex> lock(mutex_);
             if (!held_.insert(t.task_id()).second) return;  // a re-sent task it already holds
             queue_.push_back(t);

@@ -13,6 +13,7 @@
 
 #include "dds/participant.hpp"
 #include "maptunePubSubTypes.h"
+#include "refusals.hpp"
 #include "worker_backend.hpp"
 
 namespace maptune::services {
@@ -53,6 +54,7 @@ private:
     std::size_t done_ = 0;
     std::uint64_t sequence_ = 0;
     std::vector<std::thread> threads_;
+    RefusalLog refusals_{"matcher_worker"};
     // Last, so destroyed first: no callback runs once the rest starts to go away.
     std::vector<dds::Subscription> subscriptions_;
 };

@@ -10,6 +10,7 @@
 #include "bo/optimizer.hpp"
 #include "dataset/io.hpp"
 #include "dds/convert.hpp"
+#include "dds/validate.hpp"
 #include "params/export.hpp"
 #include "params/yaml_util.hpp"
 #include "runtime.hpp"
@@ -75,11 +76,14 @@ OptimizerService::OptimizerService(dds::Participant& participant, DatasetMirror&
         dds::topics::kObservationReply, dds::TopicQos::kReliable, [this](const v1::ObservationReply& r) {
             // Replies for other optimizers (and earlier lives of this one) share the topic.
             if (r.request_id().rfind(request_prefix_, 0) != 0) return;
+            // A malformed reply is dropped: the request is re-sent and answered again.
+            if (auto bad = dds::check(r); !bad.empty()) return refusals_.refused("observation_reply", "", bad);
             std::lock_guard<std::mutex> lock(mutex_);
             replies_.push_back(r);
         }));
     subscriptions_.push_back(participant.reader<v1::WorkerStatusPubSubType>(
         dds::topics::kWorkerStatus, dds::TopicQos::kLatched, [this](const v1::WorkerStatus& s) {
+            if (auto bad = dds::check(s); !bad.empty()) return refusals_.refused("worker_status", s.worker_id(), bad);
             std::lock_guard<std::mutex> lock(mutex_);
             workers_[s.worker_id()] = s;
         }));

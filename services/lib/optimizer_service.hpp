@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "dataset_mirror.hpp"
+#include "refusals.hpp"
 #include "dds/participant.hpp"
 #include "experiment/experiment.hpp"
 #include "experiment/run_files.hpp"
@@ -69,6 +70,7 @@ private:
     std::map<std::string, msg::v1::WorkerStatus> workers_;
     std::string request_prefix_;  // "<experiment>/<incarnation>/"
     std::string dataset_id_, matcher_version_;
+    RefusalLog refusals_{"optimizer", [this](const std::string& line) { log(line); }};
     // Last, so destroyed first: no callback runs once the rest starts to go away.
     std::vector<dds::Subscription> subscriptions_;
 };

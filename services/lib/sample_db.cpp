@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "dds/convert.hpp"
+#include "dds/validate.hpp"
 #include "runtime.hpp"
 #include "scoring/scoring.hpp"
 
@@ -77,6 +78,10 @@ void SampleDb::loop() {
                     case Event::kResult: handle_result(e.result); break;
                     case Event::kStatus: {
                         const auto& st = e.status;
+                        if (auto bad = dds::check(st); !bad.empty()) {
+                            refusals_.refused("worker_status", st.worker_id(), bad);
+                            break;
+                        }
                         const std::vector<std::string> held(st.tasks().begin(), st.tasks().end());
                         scheduler_.heartbeat({st.worker_id(), st.matcher_id(), st.matcher_version(), st.space_hash(),
                                               static_cast<int>(st.slots()), st.takes_settings()},
@@ -186,6 +191,12 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
         std::lock_guard<std::mutex> lock(mutex_);
         ++stats_.requests;
     }
+    if (auto bad = dds::check(r); !bad.empty()) {
+        refusals_.refused("observation_request", r.requester(), bad);
+        // An id too long to echo gets no answer: the requester cannot be told apart.
+        if (r.request_id().size() <= dds::MessageLimits::kId) reply_error(r, "invalid request: " + bad);
+        return;
+    }
     if (r.request_id().empty()) return reply_error(r, "request_id is empty");
     const params::ParameterSpace* space = nullptr;
     for (const auto& s : options_.spaces) {
@@ -198,7 +209,6 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
     }
     params::ParameterSet partial;
     for (const auto& nv : r.params()) {
-        if (!std::isfinite(nv.value())) return reply_error(r, nv.name() + ": value is not a finite number");
         if (partial.has(nv.name())) return reply_error(r, nv.name() + ": given twice");
         partial.set(nv.name(), nv.value());
     }
@@ -289,6 +299,14 @@ void SampleDb::handle_request(const v1::ObservationRequest& r, double parked_sin
 }
 
 void SampleDb::handle_result(const v1::TaskResult& r) {
+    if (auto bad = dds::check(r); !bad.empty()) {
+        refusals_.refused("task_result", r.worker_id(), bad);
+        // A failed attempt of the task when it comes from its worker (else ignored).
+        if (auto done = scheduler_.fail(r.task_id(), r.worker_id(), "invalid message: " + bad, now_s())) {
+            finish(std::move(*done));
+        }
+        return;
+    }
     std::string invalid = r.ok() ? "" : r.error();
     std::vector<store::PairRecord> pairs;
     if (r.ok()) {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "dataset_mirror.hpp"
+#include "refusals.hpp"
 #include "dds/participant.hpp"
 #include "maptunePubSubTypes.h"
 #include "params/parameter_space.hpp"
@@ -93,6 +94,7 @@ private:
     std::deque<Event> events_;
     bool stop_ = false;
     SampleDbStats stats_;
+    RefusalLog refusals_{"sample_db", options_.log};  // after options_: uses its log
     std::thread thread_;
     // Last, so destroyed first: no callback runs once the rest starts to go away.
     std::vector<dds::Subscription> subscriptions_;

@@ -6,6 +6,8 @@
 
 #include "commands.hpp"
 #include "dds/convert.hpp"
+#include "dds/validate.hpp"
+#include "refusals.hpp"
 #include "dds_options.hpp"
 #include "maptunePubSubTypes.h"
 #include "params/parameter_space.hpp"
@@ -44,10 +46,12 @@ void add_watch_command(CLI::App& app, int& exit_code) {
             dds::Participant participant(opt->dds);
             std::mutex m;
             int updates = 0;
+            services::RefusalLog refusals("maptune watch");
             // Declared after what the callbacks touch: closed before it goes.
             const auto best_sub = participant.reader<v1::BestSoFarPubSubType>(
                 dds::topics::kBestSoFar, dds::TopicQos::kLatched, [&](const v1::BestSoFar& b) {
                     if (!opt->experiment.empty() && b.experiment_id() != opt->experiment) return;
+                    if (auto bad = dds::check(b); !bad.empty()) return refusals.refused("best_so_far", "", bad);
                     std::lock_guard<std::mutex> lock(m);
                     std::cout << b.experiment_id() << ": " << b.evaluations() << " evaluations, best p="
                               << params::format_fixed(b.best_p(), 4) << " (evaluation "
@@ -64,6 +68,7 @@ void add_watch_command(CLI::App& app, int& exit_code) {
                 dds::topics::kOptimizerStatus, dds::TopicQos::kLatched, [&](const v1::OptimizerStatus& s) {
                     if (!opt->experiment.empty() && s.experiment_id() != opt->experiment) return;
                     if (s.state() == "running") return;
+                    if (auto bad = dds::check(s); !bad.empty()) return refusals.refused("optimizer_status", "", bad);
                     std::lock_guard<std::mutex> lock(m);
                     std::cout << s.experiment_id() << ": " << s.state() << " after " << s.evaluations()
                               << " evaluations (" << s.message() << ")" << std::endl;

@@ -16,6 +16,7 @@
 #include "dds/participant.hpp"
 #include "maptunePubSubTypes.h"
 #include "test_domain.hpp"
+#include "wait_until.hpp"
 
 namespace maptune::dds {
 namespace {
@@ -24,15 +25,7 @@ namespace fs = std::filesystem;
 namespace v1 = maptune::msg::v1;
 using namespace std::chrono_literals;
 
-template <class Pred>
-bool wait_until(Pred pred, std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (!pred()) {
-        if (std::chrono::steady_clock::now() > deadline) return false;
-        std::this_thread::sleep_for(10ms);
-    }
-    return true;
-}
+using test::wait_until;
 
 void run_or_fail(const std::string& command) {
     ASSERT_EQ(std::system(command.c_str()), 0) << command;

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "test_domain.hpp"
+#include "wait_until.hpp"
 #include "dds/participant.hpp"
 #include "fastdds_shm.hpp"
 #include "maptunePubSubTypes.h"
@@ -31,16 +32,7 @@ using namespace std::chrono_literals;
 
 int random_domain() { return test::reserve_domain(); }
 
-// Polls `pred` until true or `timeout`.
-template <class Pred>
-bool wait_until(Pred pred, std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (!pred()) {
-        if (std::chrono::steady_clock::now() > deadline) return false;
-        std::this_thread::sleep_for(5ms);
-    }
-    return true;
-}
+using test::wait_until;
 
 // Local addresses (host byte order) of the UDP sockets this process owns, from /proc.
 std::vector<uint32_t> own_udp_addresses() {

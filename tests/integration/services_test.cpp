@@ -342,7 +342,7 @@ TEST_F(ServicesTest, BadRequestsAreRefusedAndTheServiceKeepsServing) {
         std::string fragment;
     };
     std::vector<Case> cases;
-    cases.push_back({request("nan", {{"r_N", std::nan("")}}), "r_N: value is not a finite number"});
+    cases.push_back({request("nan", {{"r_N", std::nan("")}}), "invalid request: params: r_N is not a finite number"});
     cases.push_back({request("bounds", {{"n_C", 42}}), "n_C: 42.0 is outside [1.0, 10.0]"});
     cases.push_back({request("unknown", {{"colour", 1}}), "colour: unknown parameter"});
     auto r = request("space", {});
@@ -368,6 +368,135 @@ TEST_F(ServicesTest, BadRequestsAreRefusedAndTheServiceKeepsServing) {
     }
     EXPECT_TRUE(replies["good"].ok()) << replies["good"].error();
     EXPECT_EQ(replies["good"].pairs().size(), 4u);  // 5 submaps: 4 subsequent pairs
+}
+
+// Issue 14 item 3: malformed messages of every kind a service reads, through raw writers. Where
+// a reply exists the sender gets the reason (request -> reply, task -> result, file request ->
+// chunk); elsewhere the message is dropped. Each reason is logged once however often it comes,
+// and every service keeps serving: a good request is answered afterwards.
+TEST_F(ServicesTest, MalformedMessagesOfEveryKindAreRefusedAndServicesKeepServing) {
+    dataset_server();
+    Process& db_p = sample_db();
+    Process& w1 = worker("w1");
+    dds::Participant me({domain_, "", "maptune_loopback", "raw"});
+    std::mutex m;
+    std::map<std::string, v1::ObservationReply> replies;
+    std::map<std::string, v1::TaskResult> results;
+    std::map<std::string, v1::FileChunk> chunks;
+    const auto s1 = me.reader<v1::ObservationReplyPubSubType>(
+        dds::topics::kObservationReply, dds::TopicQos::kReliable, [&](const v1::ObservationReply& r) {
+            std::lock_guard<std::mutex> lock(m);
+            replies[r.request_id()] = r;
+        });
+    const auto s2 = me.reader<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable,
+                                                        [&](const v1::TaskResult& r) {
+                                                            std::lock_guard<std::mutex> lock(m);
+                                                            results[r.task_id()] = r;
+                                                        });
+    const auto s3 = me.reader<v1::FileChunkPubSubType>(dds::topics::kFileChunk, dds::TopicQos::kReliable,
+                                                       [&](const v1::FileChunk& c) {
+                                                           std::lock_guard<std::mutex> lock(m);
+                                                           chunks[c.request_id()] = c;
+                                                       });
+    auto requests = me.writer<v1::ObservationRequestPubSubType>(dds::topics::kObservationRequest, dds::TopicQos::kReliable);
+    auto tasks = me.writer<v1::EvaluationTaskPubSubType>(dds::topics::kEvaluationTask, dds::TopicQos::kReliable);
+    auto forged = me.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
+    auto status = me.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
+    auto files = me.writer<v1::FileRequestPubSubType>(dds::topics::kFileRequest, dds::TopicQos::kReliable);
+    ASSERT_TRUE(requests.wait_for_readers(1, std::chrono::seconds(30)));
+    ASSERT_TRUE(tasks.wait_for_readers(1, std::chrono::seconds(30)));
+    ASSERT_TRUE(files.wait_for_readers(1, std::chrono::seconds(30)));
+    const auto space = params::ParameterSpace::load(kSource + "/configs/spaces/lru_matcher.yaml");
+
+    auto request = [&](const std::string& id) {
+        v1::ObservationRequest r;
+        r.request_id(id);
+        r.requester("raw");
+        r.dataset_id(dataset_id());
+        r.view("subsequent");
+        r.matcher_id("analytic");
+        r.matcher_version("1");
+        r.space_hash(space.hash());
+        return r;
+    };
+    auto r1 = request("long-view");
+    r1.view(std::string(5000, 'v'));
+    auto r2 = request("many-params");
+    r2.params(std::vector<v1::NamedValue>(1000, v1::NamedValue()));
+    for (int i = 0; i < 3; ++i) requests.write(r1);  // logged once
+    requests.write(r2);
+
+    auto task = [&](const std::string& id) {
+        v1::EvaluationTask t;
+        t.task_id(id);
+        t.worker_id("w1");
+        t.dataset_id(dataset_id());
+        t.view("subsequent");
+        t.matcher_id("analytic");
+        t.space_hash(space.hash());
+        t.pair_ids({"a|b"});
+        return t;
+    };
+    auto t1 = task("nan-task");
+    v1::NamedValue nan_value;
+    nan_value.name("r_N");
+    nan_value.value(std::nan(""));
+    t1.params({nan_value});
+    auto t2 = task("no-pairs");
+    t2.pair_ids({});
+    tasks.write(t1);
+    tasks.write(t2);
+
+    v1::TaskResult bad_result;  // for no task of sample_db's, and broken
+    bad_result.task_id("ghost-task");
+    bad_result.worker_id("ghost");
+    bad_result.ok(true);
+    v1::PairResult p;
+    p.status(static_cast<v1::PairStatus>(9));
+    bad_result.pairs({p});
+    forged.write(bad_result);
+
+    v1::WorkerStatus ghost;  // a worker claiming four billion slots
+    ghost.worker_id("ghost");
+    ghost.matcher_id("analytic");
+    ghost.space_hash(space.hash());
+    ghost.slots(4000000000u);
+    status.write(ghost);
+
+    v1::FileRequest fr;
+    fr.request_id("raw/long-path");
+    fr.dataset_id(dataset_id());
+    fr.path(std::string(3000, 'p'));
+    files.write(fr);
+
+    // Every service still answers real work.
+    requests.write(request("good"));
+    ASSERT_TRUE(poll([&] {
+        std::lock_guard<std::mutex> lock(m);
+        return replies.count("good") && replies.count("long-view") && replies.count("many-params") &&
+               results.count("nan-task") && results.count("no-pairs") && chunks.count("raw/long-path");
+    }, 90)) << db_p.output() << w1.output();
+    std::lock_guard<std::mutex> lock(m);
+    EXPECT_TRUE(replies["good"].ok()) << replies["good"].error();
+    EXPECT_EQ(replies["good"].pairs().size(), 4u);
+    const std::vector<std::pair<std::string, std::string>> expected{
+        {replies["long-view"].error(), "invalid request: view: 5000 characters"},
+        {replies["many-params"].error(), "invalid request: params: 1000 entries"},
+        {results["nan-task"].error(), "invalid task: params: r_N is not a finite number"},
+        {results["no-pairs"].error(), "invalid task: pair_ids: empty"},
+        {chunks["raw/long-path"].error(), "invalid request: path: 3000 characters"},
+    };
+    for (const auto& [got, want] : expected) EXPECT_NE(got.find(want), std::string::npos) << got;
+    EXPECT_FALSE(results["nan-task"].ok());
+    const std::string log = db_p.output();
+    for (const char* line : {"refused a observation_request message from 'raw': view: 5000",
+                             "refused a task_result message from 'ghost': pairs.status: unknown value 9",
+                             "refused a worker_status message from 'ghost': slots: 4000000000"}) {
+        EXPECT_NE(log.find(line), std::string::npos) << line << "\n" << log;
+    }
+    const auto first = log.find("view: 5000");
+    EXPECT_EQ(log.find("view: 5000", first + 1), std::string::npos) << "logged more than once:\n" << log;
+    EXPECT_NE(w1.output().find("refused a evaluation_task message"), std::string::npos) << w1.output();
 }
 
 }  // namespace
