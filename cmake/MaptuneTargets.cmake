@@ -2,7 +2,7 @@
 
 # maptune_set_warnings(target): the project's warning set, as errors when MAPTUNE_WERROR.
 function(maptune_set_warnings target)
-  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow=local
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic $<$<CXX_COMPILER_ID:GNU>:-Wshadow=local>
                                            -Wnon-virtual-dtor
                                            -Wno-missing-field-initializers)
   if(MAPTUNE_WERROR)

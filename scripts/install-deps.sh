@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package maptune needs to build, test and run, and the report
 # renderer's npm packages (tools/report, pinned by its package-lock.json).
-# --test adds what only the tests need (Chromium, which opens the generated report).
+# --test adds what only the tests need (Chromium, which opens the generated report; clang and
+# libFuzzer for the fuzz harnesses).
+# --no-report-renderer skips Node.js and the renderer's npm packages (the service image:
+# services write no reports; `maptune report` runs where Node.js is).
 # Idempotent: packages already present are skipped, so a second run costs a few dpkg queries.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,8 +21,17 @@ packages=(
   docker-compose
 )
 # Node.js renders reports; a machine that has it from elsewhere keeps its own.
-if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
-if [ "${1:-}" = "--test" ]; then packages+=(chromium); fi
+renderer=1
+for arg in "$@"; do
+  case "$arg" in
+    --test) packages+=(chromium clang libfuzzer-14-dev) ;;
+    --no-report-renderer) renderer=0 ;;
+    *) echo "install-deps: unknown argument '$arg' (--test, --no-report-renderer)" >&2; exit 2 ;;
+  esac
+done
+if [ "$renderer" = 1 ] && { ! command -v node >/dev/null || ! command -v npm >/dev/null; }; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -41,7 +53,7 @@ fi
 
 # The report renderer's packages, exactly as locked; again only when the lock changed.
 stamp=tools/report/node_modules/.maptune-lock
-if ! cmp -s tools/report/package-lock.json "$stamp" 2>/dev/null; then
+if [ "$renderer" = 1 ] && ! cmp -s tools/report/package-lock.json "$stamp" 2>/dev/null; then
   echo "install-deps: npm ci in tools/report"
   (cd tools/report && npm ci --no-audit --no-fund --loglevel=error)
   cp tools/report/package-lock.json "$stamp"
