@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
     app.add_option("--experiment", experiment_file, "experiment YAML")->required()->check(CLI::ExistingFile);
     app.add_option("--run-dir", run_dir, "run directory: trials.csv, best_params*.yaml; an existing one resumes")->required();
     app.add_option("--dataset-id", options.dataset_id, "dataset id as announced (default: read the experiment's dataset dir)");
-    app.add_option("--matcher", options.matcher_id, "matcher id of the workers (default: lru_matcher)");
+    std::string matcher_id;
+    app.add_option("--matcher", matcher_id, "matcher id of the workers (default: the experiment's matcher.id)");
     app.add_option("--wait", options.wait_s, "seconds to wait for dataset and workers (default: 120)");
     app.add_option("--resend", options.resend_s, "seconds before an unanswered request is sent again (default: 15)")
         ->check(maptune::params::finite_range(0.1, 3600.0));
@@ -28,6 +29,7 @@ int main(int argc, char** argv) {
     install_stop_signals();
     try {
         options.experiment = maptune::experiment::load_experiment(experiment_file);
+        options.matcher_id = matcher_id.empty() ? options.experiment.matcher_id : matcher_id;
         options.run_dir = run_dir;
         // The reference matcher's version follows from the experiment's matcher settings, which
         // every request carries: any worker of this code revision evaluates them.

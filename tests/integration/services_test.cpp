@@ -212,6 +212,40 @@ TEST_F(ServicesTest, RunWithExternalWorkersTunesWithAPlugIn) {
 }
 #endif
 
+#ifdef MAPTUNE_BIN_ICP_WORKER
+// Issue 13: a plug-in matcher built on the worker SDK alone (plugins/icp_worker) is the only
+// worker of a tuning run of its own design space: the run finishes, the store holds its
+// per-pair transforms, and subsequent pairs of the simulated lab match.
+TEST_F(ServicesTest, TuningRunWithASdkPluginMatcher) {
+    dataset_server();
+    start("sample_db", {MAPTUNE_BIN_SAMPLE_DB, "--db", db(), "--space", kSource + "/configs/spaces/icp_odometry.yaml",
+                        "--cache", (dir_ / "cache_db").string()});
+    start("icp", {MAPTUNE_BIN_ICP_WORKER, "--space", kSource + "/configs/spaces/icp_odometry.yaml", "--id", "icp1",
+                  "--cache", (dir_ / "cache_icp").string()});
+    const fs::path exp = dir_ / "icp.yaml";
+    std::ofstream(exp) << "name: icp\nspace: " << kSource << "/configs/spaces/icp_odometry.yaml\n"
+                       << "dataset: " << lab().string() << "\nview: subsequent\nreference: gt\n"
+                       << "matcher: {id: icp_odometry}\nbudget: {evaluations: 6}\n"
+                       << "optimizer: {seed: 2, initial_points: 3}\n";
+    Process& opt = start("optimizer", {MAPTUNE_BIN_OPTIMIZER, "--experiment", exp.string(), "--run-dir",
+                                       run_dir().string(), "--dataset-id", dataset_id(), "--wait", "60",
+                                       "--cache", (dir_ / "cache_opt").string()});
+    ASSERT_EQ(opt.wait(300), 0) << opt.output();
+    EXPECT_EQ(trials(), 6u);
+    store::ObservationStore store(db());
+    const auto all = store.list();
+    ASSERT_FALSE(all.empty());
+    std::size_t matched = 0;
+    for (const auto& o : all) {
+        EXPECT_EQ(o.key.matcher_id, "icp_odometry");
+        EXPECT_EQ(o.pairs.size(), 4u);  // 5 submaps: 4 subsequent pairs
+        for (const auto& p : o.pairs) matched += p.matched ? 1 : 0;
+    }
+    EXPECT_GT(matched, 0u) << "odometry-seeded ICP matched no subsequent pair";
+    EXPECT_NE(opt.output().find("best so far p="), std::string::npos) << opt.output();
+}
+#endif
+
 TEST_F(ServicesTest, LateWatchSubscriberGetsTheCurrentBestAtOnce) {
     dataset_server();
     sample_db();
