@@ -130,6 +130,9 @@ put("messages", "announcement", Cdr().string("abc").string("tiny").string("srv")
 chunk = Cdr().string("c/1").u32(0).u32(2).string("manifest.yaml").u32(3)
 chunk.b += b"\x01\x02\x03"
 put("messages", "chunk", chunk.string("").message(6))
+# Regression input: a chunk count of 4e9 once made a dataset mirror allocate 4e9 slots.
+huge = Cdr().string("c/1").u32(0).u32(4000000000).string("manifest.yaml").u32(0)
+put("messages", "chunk_count_4e9", huge.string("").message(6))
 put("messages", "best", Cdr().string("demo").u32(30).u32(28).f64(0.87).values(params).f64(0.86).f64(0.01)
     .values(params).message(7))
 print("seeds in", ROOT)
