@@ -222,7 +222,9 @@ while :; do
       watch_ok=0
     fi
     # podman-compose echoes its podman command lines; the rest is maptune watch's output.
-    watch_out=$(printf '%s\n' "$watch_out" | grep -v -e '^podman ' -e '^exit code:' -e "^\['podman'" -e '^using podman' || true)
+    # With two compose files it also prints the merged configuration (" ** merged:" and JSON).
+    watch_out=$(printf '%s\n' "$watch_out" | awk '/\*\* merged:/ { skip = 1; next } skip && /^}$/ { skip = 0; next } !skip' |
+                grep -v -e '^podman ' -e '^exit code:' -e "^\['podman'" -e '^using podman' || true)
     printf '%s\n' "$watch_out" | sed 's/^/    watch| /'
     [ "$watch_ok" -eq 1 ] || echo "run-podman: watch printed no update within 60 s" >&2
     if [ "$secure" -eq 1 ]; then
