@@ -29,6 +29,15 @@ std::string value_problem(const ParameterSpec& spec, double value) {
     return "";
 }
 
+// Rounding works on value x 10^decimals as a 64-bit integer: beyond that, different values
+// would share one key (and 1e300 would round to a negative number). "" when the bounds fit.
+std::string rounding_problem(const ParameterSpec& s) {
+    const int decimals = s.type == ParamType::kInt ? 0 : s.decimals;
+    if (std::max(std::fabs(s.low), std::fabs(s.high)) * std::pow(10.0, decimals) <= 1e18) return "";
+    return "bounds [" + format_double(s.low) + ", " + format_double(s.high) + "] too large to round to " +
+           std::to_string(decimals) + " decimals (|bound| x 10^decimals must stay within 1e18)";
+}
+
 ParameterSpace parse_space(const YAML::Node& root, const std::string& source) {
     const YamlPath top{source, ""};
     check_keys(root, top, {"name", "description", "parameters"});
@@ -69,10 +78,12 @@ ParameterSpace parse_space(const YAML::Node& root, const std::string& source) {
             if (!is_integral(d) || d < 0 || d > 12) p.child("decimals").fail(n["decimals"], "expected an integer in 0..12");
             if (s.type == ParamType::kInt) p.child("decimals").fail(n["decimals"], "only for float parameters");
             s.decimals = static_cast<int>(d);
-            // Rounding works on value x 10^decimals as a 64-bit integer.
-            if (std::max(std::fabs(s.low), std::fabs(s.high)) * std::pow(10.0, s.decimals) > 1e18) {
+        }
+        if (const std::string problem = rounding_problem(s); !problem.empty()) {
+            if (n["decimals"].IsDefined()) {
                 p.child("decimals").fail(n["decimals"], "too many decimals for bounds this large");
             }
+            p.fail(n, problem);
         }
         if (s.low > s.high) {
             p.fail(n, "low " + format_double(s.low) + " > high " + format_double(s.high));
@@ -141,6 +152,9 @@ ParameterSpace::ParameterSpace(std::string name, std::vector<ParameterSpec> spec
         }
         if (s.log_scale && s.low <= 0) {
             throw ConfigError(s.name + ": log scale needs low > 0");
+        }
+        if (const std::string problem = rounding_problem(s); !problem.empty()) {
+            throw ConfigError(s.name + ": " + problem);
         }
         const std::string problem = value_problem(s, s.default_value);
         if (!problem.empty()) throw ConfigError("default of " + problem);

@@ -91,6 +91,11 @@ TEST(ParameterSpace, ErrorsNameFileLineKeyAndExpectation) {
         {"parameters.a.log_scale", "low > 0"});
     expect_space_error("name: s\nparameters:\n  {x: 1}: {type: float, low: 0, high: 1, default: 0}\n",
                        {"space.yaml:3", "expected a plain name as key"});
+    // Bounds whose rounded keys would overflow (1e299 once keyed as -92233720368547758.08).
+    expect_space_error("name: s\nparameters:\n  a: {type: float, low: -1e300, high: 1e300, default: 0}\n",
+                       {"space.yaml:3", "parameters.a", "too large to round to 2 decimals"});
+    expect_space_error("name: s\nparameters:\n  a: {type: int, low: 0, high: 1e19, default: 0}\n",
+                       {"parameters.a", "too large to round to 0 decimals"});
 }
 
 TEST(ParameterSpace, MissingFileIsAClearError) {
