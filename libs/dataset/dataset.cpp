@@ -299,7 +299,11 @@ std::string DatasetWriter::finish() {
     if (manifest_.runs.empty()) throw DatasetError(out_, "refusing to write a dataset without runs");
     const std::string body = manifest_body(manifest_);
     manifest_.id = hex64(content_hash(body, file_hashes_));
-    write_file(tmp_ / "manifest.yaml", "id: \"" + manifest_.id + "\"\n" + body);
+    manifest_.file_hashes = file_hashes_;
+    // The per-file hashes follow the body: the id is computed from the body and them, as before.
+    std::string files = "files:\n";
+    for (const auto& [rel, h] : file_hashes_) files += "  \"" + rel + "\": \"" + hex64(h) + "\"\n";
+    write_file(tmp_ / "manifest.yaml", "id: \"" + manifest_.id + "\"\n" + body + files);
     std::error_code ec;
     if (fs::exists(out_)) fs::remove_all(out_, ec);
     fs::rename(tmp_, out_, ec);
@@ -427,6 +431,17 @@ Dataset Dataset::open(const fs::path& dir) {
             m.meta[kv.first.as<std::string>()] = kv.second.as<std::string>();
         }
     }
+    if (root["files"]) {
+        if (!root["files"].IsMap()) throw DatasetError(mf, "files: expected path: hash entries");
+        for (const auto& kv : root["files"]) {
+            const std::string rel = kv.first.IsScalar() ? kv.first.as<std::string>() : "";
+            const std::string hex = kv.second.IsScalar() ? kv.second.as<std::string>() : "";
+            if (rel.empty() || hex.size() != 16 || hex.find_first_not_of("0123456789abcdef") != std::string::npos) {
+                throw DatasetError(mf, "files: expected path: 16 hex digits, got '" + rel + "': '" + hex + "'");
+            }
+            m.file_hashes[rel] = std::stoull(hex, nullptr, 16);
+        }
+    }
     const YAML::Node runs = root["runs"];
     if (!runs || !runs.IsSequence() || runs.size() == 0) throw DatasetError(mf, "runs: missing or empty");
     for (std::size_t i = 0; i < runs.size(); ++i) {
@@ -542,12 +557,25 @@ Submap Dataset::load_submap(int run, int index) const {
                                                " points, manifest says " + std::to_string(s.points));
     }
     out.obstacles = read_points(dir_ / s.obstacles);
-    std::uint64_t h = fnv1a(read_file(dir_ / s.cloud));
-    h = fnv1a(read_file(dir_ / s.obstacles), h);
+    // Each file as the manifest recorded it: a changed file would give results that the store
+    // keeps under this dataset's id.
+    auto checked = [&](const std::string& rel, std::string bytes) {
+        if (const auto it = manifest_.file_hashes.find(rel); it != manifest_.file_hashes.end()) {
+            const std::uint64_t now = fnv1a(bytes);
+            if (now != it->second) {
+                throw DatasetError(dir_ / rel, "changed since the dataset was written (hash " + hex64(now) +
+                                                   ", manifest " + hex64(it->second) +
+                                                   "): regenerate or re-import the dataset");
+            }
+        }
+        return bytes;
+    };
+    std::uint64_t h = fnv1a(checked(s.cloud, read_file(dir_ / s.cloud)));
+    h = fnv1a(checked(s.obstacles, read_file(dir_ / s.obstacles)), h);
     if (!s.octomap.empty()) {
         const fs::path bt = dir_ / s.octomap;
         if (!fs::exists(bt)) throw DatasetError(bt, "missing OctoMap file");
-        const std::string bytes = read_file(bt);  // parsed and hashed from one read
+        const std::string bytes = checked(s.octomap, read_file(bt));  // parsed and hashed from one read
         out.octree = octree_from_bt(bytes, bt.string());
         h = fnv1a(bytes, h);
     }
@@ -569,7 +597,9 @@ Submap Dataset::load_submap(const std::string& id) const {
 
 bool Dataset::verify(std::string* recomputed, const std::map<std::string, std::uint64_t>* file_hashes) const {
     const std::string text = read_file(dir_ / "manifest.yaml");
-    const std::string body = text.substr(text.find('\n') + 1);
+    std::string body = text.substr(text.find('\n') + 1);
+    // The per-file hashes at the end are not part of what the id hashes.
+    if (const auto f = body.rfind("\nfiles:\n"); f != std::string::npos) body.resize(f + 1);
     std::map<std::string, std::uint64_t> files;
     auto add = [&](const std::string& rel) {
         if (rel.empty()) return;

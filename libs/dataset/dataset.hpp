@@ -53,6 +53,10 @@ struct Manifest {
     double overlap_voxel = 0;                      // leaf of the overlap ratio [m]
     std::map<std::string, std::string> meta;       // generator / import settings
     std::vector<RunRecord> runs;
+    // FNV-1a 64 of each file (relative path) as written; what the id was computed from. A file
+    // that no longer matches is refused when it is loaded (its results would be stored under
+    // this id). Empty in datasets written before it was recorded.
+    std::map<std::string, std::uint64_t> file_hashes;
 };
 
 enum class View { complete, subsequent };

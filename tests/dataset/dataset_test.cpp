@@ -388,6 +388,24 @@ TEST(DatasetTest, BadDatasetFilesAreNamed) {
     EXPECT_NE(error_of([&] { Dataset::open(dir); }).find("missing manifest"), std::string::npos);
 }
 
+// Issue 14: a file changed after the dataset was written — still a valid cloud — is refused
+// when loaded, so its results never enter the store under the dataset's old id.
+TEST(DatasetTest, AFileChangedInPlaceIsRefusedWhenLoaded) {
+    const fs::path dir = temp_root() / "changed";
+    fs::copy(lab_tiny(), dir, fs::copy_options::recursive);
+    const Dataset d = Dataset::open(dir);
+    EXPECT_FALSE(d.manifest().file_hashes.empty());
+    EXPECT_NO_THROW(d.load_submap(0, 1));
+    std::string obstacles = read_file(dir / "run00/submap001_obstacles.pcd");
+    obstacles[obstacles.size() - 2] ^= 0x01;  // one bit of the last coordinate
+    put(dir / "run00/submap001_obstacles.pcd", obstacles);
+    EXPECT_NE(error_of([&] { d.load_submap(0, 1); })
+                  .find("run00/submap001_obstacles.pcd: changed since the dataset was written"),
+              std::string::npos);
+    EXPECT_NO_THROW(d.load_submap(0, 2));
+    EXPECT_FALSE(d.verify());
+}
+
 TEST(SimulatorTest, MoonTinyHasTerrainObstacles) {
     const fs::path out = temp_root() / "moon_tiny";
     generate_dataset(sim_preset("moon-tiny"), out);
