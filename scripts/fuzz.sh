@@ -37,7 +37,8 @@ run_one() {
   mkdir -p "$corpus" "$findings"
   cp -r "fuzz/corpus/$h/." "$corpus/"
   # -rss_limit_mb: a reader that allocates without bound is a finding, not an OOM of the machine.
-  if build/fuzz/fuzz/fuzz_"$h" "$corpus" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  # TMPDIR: the harnesses' scratch files go where the EXIT trap removes them.
+  if TMPDIR="$work" build/fuzz/fuzz/fuzz_"$h" "$corpus" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
        -artifact_prefix="$findings/" -print_final_stats=1 >"$work/$h.log" 2>&1; then
     echo "fuzz_$h: $(grep -m1 '^stat::number_of_executed_units' "$work/$h.log" | awk '{print $2}') executions in ${seconds} s, no finding"
   else
