@@ -14,18 +14,8 @@
 namespace {
 
 const maptune::params::ParameterSpace& space() {
-    static const auto s = maptune::params::ParameterSpace::parse(R"(name: lru_matcher
-parameters:
-  r_N:   {type: float, low: 0.1,  high: 2.0, default: 0.2}
-  v_K:   {type: float, low: 0.05, high: 0.5, default: 0.1}
-  t_K:   {type: float, low: 0.0,  high: 1.0, default: 1.0}
-  r_D:   {type: float, low: 0.1,  high: 2.0, default: 0.2}
-  n_C:   {type: int,   low: 1,    high: 10,  default: 3}
-  t_C:   {type: float, low: 0.0,  high: 1.0, default: 0.5}
-  r_LRF: {type: float, low: 0.1,  high: 1.0, default: 0.2}
-  v_TF:  {type: float, low: 0.1,  high: 1.0, default: 0.5}
-  n_TF:  {type: int,   low: 3,    high: 300, default: 8}
-)", "fuzz space");
+    // The reference matcher's space as shipped (MAPTUNE_SPACE_FILE: set by fuzz/CMakeLists.txt).
+    static const auto s = maptune::params::ParameterSpace::load(MAPTUNE_SPACE_FILE);
     return s;
 }
 

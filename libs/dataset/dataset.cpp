@@ -557,27 +557,26 @@ Submap Dataset::load_submap(int run, int index) const {
                                                " points, manifest says " + std::to_string(s.points));
     }
     out.obstacles = read_points(dir_ / s.obstacles);
-    // Each file as the manifest recorded it: a changed file would give results that the store
-    // keeps under this dataset's id.
-    auto checked = [&](const std::string& rel, std::string bytes) {
-        if (const auto it = manifest_.file_hashes.find(rel); it != manifest_.file_hashes.end()) {
-            const std::uint64_t now = fnv1a(bytes);
-            if (now != it->second) {
-                throw DatasetError(dir_ / rel, "changed since the dataset was written (hash " + hex64(now) +
-                                                   ", manifest " + hex64(it->second) +
-                                                   "): regenerate or re-import the dataset");
-            }
+    // Each file hashed once: checked against the manifest (a changed file would give results
+    // that the store keeps under this dataset's id), then folded into the submap's content hash.
+    std::uint64_t h = fnv1a("");
+    auto add = [&](const std::string& rel, const std::string& bytes) {
+        const std::uint64_t fh = fnv1a(bytes);
+        if (const auto it = manifest_.file_hashes.find(rel); it != manifest_.file_hashes.end() && fh != it->second) {
+            throw DatasetError(dir_ / rel, "changed since the dataset was written (hash " + hex64(fh) +
+                                               ", manifest " + hex64(it->second) +
+                                               "): regenerate or re-import the dataset");
         }
-        return bytes;
+        h = fnv1a(hex64(fh), h);
     };
-    std::uint64_t h = fnv1a(checked(s.cloud, read_file(dir_ / s.cloud)));
-    h = fnv1a(checked(s.obstacles, read_file(dir_ / s.obstacles)), h);
+    add(s.cloud, read_file(dir_ / s.cloud));
+    add(s.obstacles, read_file(dir_ / s.obstacles));
     if (!s.octomap.empty()) {
         const fs::path bt = dir_ / s.octomap;
         if (!fs::exists(bt)) throw DatasetError(bt, "missing OctoMap file");
-        const std::string bytes = checked(s.octomap, read_file(bt));  // parsed and hashed from one read
+        const std::string bytes = read_file(bt);  // parsed and hashed from one read
+        add(s.octomap, bytes);
         out.octree = octree_from_bt(bytes, bt.string());
-        h = fnv1a(bytes, h);
     }
     out.content_hash = h;
     out.T_world_submap_gt = r.gt[index].T;
