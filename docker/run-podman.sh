@@ -7,7 +7,7 @@
 # the current best at once), then stops and removes the containers and the network (images
 # and volumes are kept; the run directory and the logs are also copied to runs/podman-demo/).
 #
-#   bash docker/run-podman.sh [--evaluations N] [--timeout SECONDS] [--keep-runs] [--secure]
+#   bash docker/run-podman.sh [--evaluations N] [--timeout SECONDS] [--keep-runs] [--secure] [--plugin]
 #
 #   --evaluations N  budget of the tuning run (default: the demo experiment's, 20)
 #   --timeout S      give up when the optimizer has not finished after S seconds (default 3600)
@@ -17,6 +17,9 @@
 #   --secure         DDS-Security on (docker/compose.secure.yaml, PKI in docker/pki made by
 #                    scripts/make-pki.sh if missing); also checks that a `watch` without a
 #                    certificate on the same network sees nothing
+#   --plugin         compose profile `plugin`: also start the SDK plug-in matcher
+#                    (maptune_fpfh_worker) and tune it (configs/experiments/fpfh_gicp_demo.yaml)
+#                    instead of the reference matcher, whose workers keep running beside it
 #
 # Exits non-zero unless the run produced best_params.yaml.
 set -euo pipefail
@@ -25,13 +28,15 @@ evaluations=""
 timeout_s=3600
 keep_runs=0
 secure=0
+plugin=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --evaluations) evaluations=$2; shift 2 ;;
     --timeout) timeout_s=$2; shift 2 ;;
     --keep-runs) keep_runs=1; shift ;;
     --secure) secure=1; shift ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    --plugin) plugin=1; shift ;;
+    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
     *) echo "run-podman: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -164,19 +169,28 @@ ensure_volume runs
 ensure_volume datasets
 runs=$(volume_dir runs)
 
-# A smaller budget: a copy of the demo experiment in the runs volume, its relative paths made
+experiment=configs/experiments/demo.yaml
+extra_services=()
+if [ "$plugin" -eq 1 ]; then
+  experiment=configs/experiments/fpfh_gicp_demo.yaml
+  extra_services=(fpfh_worker)
+  export MAPTUNE_EXPERIMENT=$experiment
+  echo "plug-in: maptune_fpfh_worker joins the reference workers; tuning $experiment"
+fi
+# A smaller budget: a copy of the experiment in the runs volume, its relative paths made
 # absolute (they are relative to the file's directory, configs/experiments/ in the image).
 if [ -n "$evaluations" ]; then
   podman run --rm -v "${project}_runs:/runs" localhost/maptune:latest sh -c \
     "sed -e 's|^budget:.*|budget: {evaluations: $evaluations}|' -e 's|\\.\\./\\.\\./|/opt/maptune/|g' \
-         -e 's|\\.\\./|/opt/maptune/configs/|g' configs/experiments/demo.yaml > /runs/demo_experiment.yaml"
+         -e 's|\\.\\./|/opt/maptune/configs/|g' $experiment > /runs/demo_experiment.yaml"
   export MAPTUNE_EXPERIMENT=/runs/demo_experiment.yaml
   echo "budget: $evaluations evaluations ($MAPTUNE_EXPERIMENT)"
 fi
 
 # podman-compose 1.0.3 starts services in dependency order but ignores depends_on conditions
 # and profiles: so generate runs to completion first, and `up` names the services to start
-# (leaving out `watch`, profile tools). It honours deploy.replicas (2 workers).
+# (leaving out `watch`, profile tools, and `fpfh_worker`, profile plugin, unless --plugin).
+# It honours deploy.replicas (2 workers).
 "${compose[@]}" up -d --no-build generate
 if ! timeout 600 podman wait maptune_generate_1 >/dev/null || [ "$(state maptune_generate_1)" != "exited 0" ]; then
   echo "run-podman: generate failed ($(state maptune_generate_1))" >&2
@@ -184,13 +198,14 @@ if ! timeout 600 podman wait maptune_generate_1 >/dev/null || [ "$(state maptune
 fi
 podman logs maptune_generate_1
 podman rm maptune_generate_1 >/dev/null  # `up` below runs it again: a no-op, the dataset is there
-"${compose[@]}" up -d --no-build dataset_server sample_db worker optimizer
+"${compose[@]}" up -d --no-build dataset_server sample_db worker "${extra_services[@]}" optimizer
 podman ps --filter "label=io.podman.compose.project=$project" --format 'table {{.Names}}\t{{.Status}}\t{{.Command}}'
 took up
 
 # --- tuning ---------------------------------------------------------------------------------
 phase "tuning (timeout ${timeout_s} s)"
 services=(maptune_dataset_server_1 maptune_sample_db_1 maptune_worker_1 maptune_worker_2)
+[ "$plugin" -eq 0 ] || services+=(maptune_fpfh_worker_1)
 trials=$runs/demo/trials.csv
 watched=0
 watch_out=""

@@ -12,29 +12,24 @@
 namespace maptune::dds {
 
 extern const char* const kLoopbackProfileXml;
+extern const char* const kQosProfilesXml;
 
 namespace fdds = eprosima::fastdds::dds;
 using eprosima::fastrtps::types::ReturnCode_t;
 
 namespace {
 
-// Keyed topics hold one instance per worker, dataset or experiment: allow many (the
-// default is 10), each with `depth` samples.
-template <class Qos>
-void unlimited_instances(Qos& q) {
-    const int32_t depth = q.history().depth;
-    q.resource_limits().max_instances = 4096;
-    q.resource_limits().max_samples_per_instance = depth;
-    q.resource_limits().max_samples = std::max<int32_t>(depth, 4096);
-}
-
 // Each XML source is parsed once per process: parsing it again fails on duplicate ids.
+// The topic QoS profiles (configs/dds/qos.xml) are loaded with the first of them.
 bool load_profiles_once(const std::string& file) {
     static std::mutex mutex;
     static std::set<std::string> loaded;
     std::lock_guard<std::mutex> lock(mutex);
     if (loaded.count(file)) return true;
     auto* factory = fdds::DomainParticipantFactory::get_instance();
+    static const bool qos_loaded =
+        factory->load_XML_profiles_string(kQosProfilesXml, std::strlen(kQosProfilesXml)) == ReturnCode_t::RETCODE_OK;
+    if (!qos_loaded) return false;
     const ReturnCode_t rc =
         file.empty() ? factory->load_XML_profiles_string(kLoopbackProfileXml,
                                                           std::strlen(kLoopbackProfileXml))
@@ -78,52 +73,25 @@ std::vector<std::pair<std::string, std::string>> security_properties(const Parti
     };
 }
 
-void apply_qos(TopicQos qos, fdds::DataWriterQos& w) {
-    switch (qos) {
-        case TopicQos::kReliable:
-            w.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-            w.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-            w.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-            w.history().depth = 1000;
-            break;
-        case TopicQos::kLatched:
-            w.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-            w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-            w.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-            w.history().depth = 1;
-            break;
-        case TopicQos::kBestEffort:
-            w.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
-            w.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-            w.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-            w.history().depth = 1;
-            break;
-    }
-    unlimited_instances(w);
+std::string qos_profile(TopicQos qos, bool writer) {
+    const char* base = qos == TopicQos::kReliable ? "maptune_reliable"
+                       : qos == TopicQos::kLatched ? "maptune_latched"
+                                                   : "maptune_best_effort";
+    return std::string(base) + (writer ? "_writer" : "_reader");
 }
 
-void apply_qos(TopicQos qos, fdds::DataReaderQos& r) {
-    switch (qos) {
-        case TopicQos::kReliable:
-            r.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-            r.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-            r.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-            r.history().depth = 1000;
-            break;
-        case TopicQos::kLatched:
-            r.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-            r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-            r.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-            r.history().depth = 1;
-            break;
-        case TopicQos::kBestEffort:
-            r.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
-            r.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-            r.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-            r.history().depth = 1;
-            break;
-    }
-    unlimited_instances(r);
+fdds::DataWriterQos Participant::writer_qos(TopicQos qos) const {
+    fdds::DataWriterQos q;
+    if (publisher_->get_datawriter_qos_from_profile(qos_profile(qos, true), q) != ReturnCode_t::RETCODE_OK)
+        throw DdsError("DDS QoS profile '" + qos_profile(qos, true) + "' is missing (configs/dds/qos.xml)");
+    return q;
+}
+
+fdds::DataReaderQos Participant::reader_qos(TopicQos qos) const {
+    fdds::DataReaderQos q;
+    if (subscriber_->get_datareader_qos_from_profile(qos_profile(qos, false), q) != ReturnCode_t::RETCODE_OK)
+        throw DdsError("DDS QoS profile '" + qos_profile(qos, false) + "' is missing (configs/dds/qos.xml)");
+    return q;
 }
 
 Participant::Participant(const ParticipantOptions& options) : domain_id_(options.domain_id) {

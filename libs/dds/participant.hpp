@@ -49,15 +49,16 @@ struct ParticipantOptions {
 // DdsError naming the first missing file. Empty when security is off.
 std::vector<std::pair<std::string, std::string>> security_properties(const ParticipantOptions& options);
 
-// Delivery semantics of a topic.
+// Delivery semantics of a topic: each is a pair of writer/reader profiles in
+// configs/dds/qos.xml (compiled in; the wire contract in docs/plugin-matcher.md).
 enum class TopicQos {
     kReliable,  // reliable, volatile, keep last 1000: requests, tasks, results
     kLatched,   // reliable, transient-local, keep last 1 per key: late joiners get the latest
     kBestEffort,  // heartbeats
 };
 
-void apply_qos(TopicQos qos, eprosima::fastdds::dds::DataWriterQos& w);
-void apply_qos(TopicQos qos, eprosima::fastdds::dds::DataReaderQos& r);
+// "maptune_reliable_writer", "maptune_latched_reader", ...
+std::string qos_profile(TopicQos qos, bool writer);
 
 template <class T>
 class Writer {
@@ -156,9 +157,7 @@ public:
     template <class PubSubType>
     Writer<typename PubSubType::type> writer(const std::string& topic, TopicQos qos) {
         auto* t = topic_for(topic, new PubSubType());
-        eprosima::fastdds::dds::DataWriterQos wq = publisher_->get_default_datawriter_qos();
-        apply_qos(qos, wq);
-        auto* w = publisher_->create_datawriter(t, wq);
+        auto* w = publisher_->create_datawriter(t, writer_qos(qos));
         if (w == nullptr) throw DdsError("cannot create a writer on topic '" + topic + "'" + denied_hint("publish"));
         return Writer<typename PubSubType::type>(w);
     }
@@ -168,8 +167,7 @@ public:
     [[nodiscard]] Subscription reader(const std::string& topic, TopicQos qos,
                                       std::function<void(const typename PubSubType::type&)> on_sample) {
         auto* t = topic_for(topic, new PubSubType());
-        eprosima::fastdds::dds::DataReaderQos rq = subscriber_->get_default_datareader_qos();
-        apply_qos(qos, rq);
+        const auto rq = reader_qos(qos);
         auto gate = std::make_shared<ReaderGate>();
         auto listener = std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample), gate);
         auto* r = subscriber_->create_datareader(t, rq, listener.get());
@@ -178,6 +176,10 @@ public:
         listeners_.push_back(std::move(listener));
         return Subscription(std::move(gate));
     }
+
+    // The QoS of qos_profile(qos, …); throws DdsError when the profile is missing.
+    eprosima::fastdds::dds::DataWriterQos writer_qos(TopicQos qos) const;
+    eprosima::fastdds::dds::DataReaderQos reader_qos(TopicQos qos) const;
 
 private:
     // Registers the type on first use (taking ownership of `type`) and returns the topic.

@@ -76,6 +76,62 @@ TEST(Participant, RejectsOutOfRangeDomainAndUnknownProfile) {
     EXPECT_THROW(Participant({1, "/nonexistent/profiles.xml", "maptune_loopback", "t"}), DdsError);
 }
 
+// The wire contract's QoS (docs/plugin-matcher.md) comes from configs/dds/qos.xml, compiled
+// in: with the built-in profile and with a user's profile file alike.
+TEST(Participant, TopicQosComesFromTheShippedProfiles) {
+    namespace fd = eprosima::fastdds::dds;
+    // A user's file: a loopback participant profile of its own name, no QoS in it.
+    const auto dir = std::filesystem::temp_directory_path() / ("maptune_qos_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string user_file = (dir / "user.xml").string();
+    std::ofstream(user_file) << R"(<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"><profiles>
+  <transport_descriptors><transport_descriptor>
+    <transport_id>user_udp</transport_id><type>UDPv4</type>
+    <interfaceWhiteList><address>127.0.0.1</address></interfaceWhiteList>
+  </transport_descriptor></transport_descriptors>
+  <participant profile_name="user_loopback"><rtps>
+    <useBuiltinTransports>false</useBuiltinTransports>
+    <userTransports><transport_id>user_udp</transport_id></userTransports>
+    <builtin>
+      <metatrafficUnicastLocatorList><locator><udpv4><address>127.0.0.1</address></udpv4></locator></metatrafficUnicastLocatorList>
+      <initialPeersList><locator><udpv4><address>127.0.0.1</address></udpv4></locator></initialPeersList>
+    </builtin>
+  </rtps></participant>
+</profiles></dds>
+)";
+    for (const std::string& file : {std::string(), user_file}) {
+        SCOPED_TRACE(file.empty() ? "built-in loopback profile" : "a user's profile file");
+        Participant p({random_domain(), file, file.empty() ? "maptune_loopback" : "user_loopback", "qos_check"});
+        struct Want {
+            TopicQos qos;
+            fd::ReliabilityQosPolicyKind reliability;
+            fd::DurabilityQosPolicyKind durability;
+            int depth;
+        };
+        for (const auto& w : {Want{TopicQos::kReliable, fd::RELIABLE_RELIABILITY_QOS, fd::VOLATILE_DURABILITY_QOS, 1000},
+                              Want{TopicQos::kLatched, fd::RELIABLE_RELIABILITY_QOS, fd::TRANSIENT_LOCAL_DURABILITY_QOS, 1},
+                              Want{TopicQos::kBestEffort, fd::BEST_EFFORT_RELIABILITY_QOS, fd::VOLATILE_DURABILITY_QOS, 1}}) {
+            const auto wq = p.writer_qos(w.qos);
+            const auto rq = p.reader_qos(w.qos);
+            EXPECT_EQ(wq.reliability().kind, w.reliability) << qos_profile(w.qos, true);
+            EXPECT_EQ(rq.reliability().kind, w.reliability) << qos_profile(w.qos, false);
+            EXPECT_EQ(wq.durability().kind, w.durability);
+            EXPECT_EQ(rq.durability().kind, w.durability);
+            for (const auto& h : {wq.history(), rq.history()}) {
+                EXPECT_EQ(h.kind, fd::KEEP_LAST_HISTORY_QOS);
+                EXPECT_EQ(h.depth, w.depth);
+            }
+            for (const auto& l : {wq.resource_limits(), rq.resource_limits()}) {
+                EXPECT_EQ(l.max_instances, 4096);
+                EXPECT_EQ(l.max_samples_per_instance, w.depth);
+                EXPECT_EQ(l.max_samples, 4096);
+            }
+        }
+    }
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Participant, ReliableRequestsArriveInOrderBetweenParticipants) {
     const int domain = random_domain();
     Participant a({domain, "", "maptune_loopback", "a"});
