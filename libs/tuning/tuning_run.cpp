@@ -139,6 +139,22 @@ std::vector<Request> TuningRun::ask(int slots, double now_s) {
     std::vector<Request> out = std::move(continuations_);
     continuations_.clear();
     if (experiment_.max_seconds > 0 && now_s - *started_at_ > experiment_.max_seconds) return out;
+    // A resumed best has no subset answers (trials.csv keeps none): recall them before any
+    // proposal is judged on the subset, once per best.
+    const int best = summary_.best;
+    if (options_.fidelity && best >= 0 && !subset_outcomes_.count(best) && !recall_tried_[best]) {
+        recall_tried_[best] = true;
+        Recall r;
+        r.index = best;
+        r.request.id = next_id();
+        r.request.params = summary_.evaluations[static_cast<std::size_t>(best)].params;
+        r.request.origin = "recall";
+        r.request.view = options_.fidelity->view;
+        r.last_sent_at = now_s;
+        out.push_back(r.request);
+        recalls_[r.request.id] = std::move(r);
+    }
+    if (!recalls_.empty()) return out;
     const int target = experiment_.batch > 0 ? experiment_.batch : std::max(1, slots);
     const int done = static_cast<int>(summary_.evaluations.size());
     while (static_cast<int>(in_flight_.size()) < target &&
@@ -164,6 +180,12 @@ std::vector<Request> TuningRun::ask(int slots, double now_s) {
 
 std::vector<Request> TuningRun::due_resends(double now_s) {
     std::vector<Request> out;
+    for (auto& [id, r] : recalls_) {
+        if (now_s - r.last_sent_at > options_.resend_s) {
+            r.last_sent_at = now_s;
+            out.push_back(r.request);
+        }
+    }
     for (auto& [id, f] : in_flight_) {
         if (now_s - f.last_sent_at > options_.resend_s) {
             f.last_sent_at = now_s;
@@ -174,6 +196,19 @@ std::vector<Request> TuningRun::due_resends(double now_s) {
 }
 
 ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord* accepted) {
+    if (const auto rc = recalls_.find(reply.request_id); rc != recalls_.end()) {
+        if (reply.ok && set_key(reply.params) != set_key(rc->second.request.params)) return ReplyOutcome::kOtherSet;
+        const int index = rc->second.index;
+        recalls_.erase(rc);
+        if (reply.ok) {
+            try {
+                subset_outcomes_[index] = options_.fidelity->outcomes(reply.pairs);
+            } catch (const std::exception&) {
+                // Not comparable on pairs: the unpaired bound stands in, as when the recall failed.
+            }
+        }
+        return ReplyOutcome::kRecalled;
+    }
     const auto it = in_flight_.find(reply.request_id);
     if (it == in_flight_.end()) return ReplyOutcome::kNotInFlight;
     // An answer whose set differs is someone else's: never told to the model.

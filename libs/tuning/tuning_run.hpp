@@ -18,10 +18,12 @@
 // - with multi-fidelity (Fidelity), a proposal other than a start point is first asked on the
 //   subset view; it goes on to the whole view (a new request, the same proposal) only when it
 //   can still beat the best so far: the upper bound of its paired difference to the best on
-//   the same pairs is >= 0 (measure::paired_difference; after a resume, until a whole-view
-//   evaluation gives the best's pairs, the unpaired measure::extrapolate bound against the
-//   best's objective). Otherwise the subset's estimate is its evaluation (fidelity k), told to
-//   the model, never the best.
+//   the same pairs is >= 0 (measure::paired_difference). trials.csv keeps no per-pair answers,
+//   so a resumed run first recalls the best's answers on the subset (a request the sample_db
+//   answers from its store, where the best's whole view lies) before it asks anything on the
+//   subset, and so decides as the uninterrupted run did; only when that recall fails does the
+//   unpaired measure::extrapolate bound against the best's objective stand in. Otherwise the
+//   subset's estimate is its evaluation (fidelity k), told to the model, never the best.
 
 #include <cstdint>
 #include <functional>
@@ -95,6 +97,7 @@ enum class ReplyOutcome {
     kContinued,   // the subset answer can still beat the best: the whole view is asked next
     kNotInFlight, // no such request in flight: another optimizer's, an earlier life's, a duplicate
     kOtherSet,    // the request is ours but the answer is for another parameter set
+    kRecalled,    // the best's subset answers after a resume (no evaluation)
 };
 
 class TuningRun {
@@ -154,6 +157,13 @@ private:
     double elapsed_before_ = 0;             // elapsed_s of a resumed run's last record
     std::vector<Request> continuations_;    // whole-view requests to send
     std::map<int, std::vector<double>> subset_outcomes_;  // evaluation index -> its subset outcomes
+    struct Recall {
+        int index = 0;  // the evaluation whose subset answers are asked for
+        Request request;
+        double last_sent_at = 0;
+    };
+    std::map<std::string, Recall> recalls_;  // by request id
+    std::map<int, bool> recall_tried_;       // evaluation index -> asked once already
 };
 
 }  // namespace maptune::tuning

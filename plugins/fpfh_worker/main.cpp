@@ -2,7 +2,6 @@
 // (fpfh_matcher.hpp), served through the worker SDK alone — no DDS header, no maptune matcher.
 //
 //   maptune_fpfh_worker --space configs/spaces/fpfh_gicp.yaml --domain 42
-#include <chrono>
 #include <functional>
 #include <list>
 #include <mutex>
@@ -71,62 +70,38 @@ public:
     }
 
     Outcome run(const Task& task, maptune::sdk::Datasets& datasets) override {
-        Outcome out;
         maptune::fpfh::Params params;
         try {
             params = maptune::fpfh::params_from(task.params);
         } catch (const std::exception& e) {
+            Outcome out;
             out.error = e.what();
             return out;
         }
-        const auto ds = datasets.open(task.dataset_id, &out.error);
-        if (!ds) return out;
-        std::ostringstream feature_key;
-        feature_key << task.dataset_id << '|' << params.voxel_m << '|' << params.normal_scale << '|'
-                    << params.feature_scale << '|';
-        for (const auto& pair_id : task.pair_ids) {
-            const auto bar = pair_id.find('|');
-            if (bar == std::string::npos) {
-                out.error = "pair id '" + pair_id + "' is not '<submap>|<submap>'";
-                return out;
+        std::ostringstream key;
+        key << task.dataset_id << '|' << params.voxel_m << '|' << params.normal_scale << '|' << params.feature_scale << '|';
+        return maptune::sdk::run_pairs(task, datasets, [&](const maptune::dataset::Dataset& ds, const std::string& a_id,
+                                                           const std::string& b_id, PairResult& r) {
+            const auto features = [&](const std::string& submap_id) {
+                return cache_.get(key.str() + submap_id, [&] {
+                    const auto submap = ds.load_submap(submap_id);
+                    std::vector<Eigen::Vector3f> points;
+                    points.reserve(submap.cloud.size());
+                    for (const auto& p : submap.cloud) points.emplace_back(p.x, p.y, p.z);
+                    return maptune::fpfh::prepare(points, params);
+                });
+            };
+            const auto a = features(a_id), b = features(b_id);
+            if (!a.cloud || !b.cloud) {
+                r.reason = "submap " + (a.cloud ? b_id + ": " + b.reason : a_id + ": " + a.reason);
+                return;
             }
-            const std::string a_id = pair_id.substr(0, bar), b_id = pair_id.substr(bar + 1);
-            if (!datasets.ensure_submaps(*ds, {a_id, b_id}, &out.error)) return out;
-            const auto start = std::chrono::steady_clock::now();
-            PairResult r;
-            r.pair_id = pair_id;
-            try {
-                const auto features = [&](const std::string& submap_id) {
-                    return cache_.get(feature_key.str() + submap_id, [&] {
-                        const auto submap = ds->load_submap(submap_id);
-                        std::vector<Eigen::Vector3f> points;
-                        points.reserve(submap.cloud.size());
-                        for (const auto& p : submap.cloud) points.emplace_back(p.x, p.y, p.z);
-                        return maptune::fpfh::prepare(points, params);
-                    });
-                };
-                const auto a = features(a_id), b = features(b_id);
-                if (!a.cloud || !b.cloud) {
-                    r.status = PairStatus::kNoMatch;
-                    r.reason = "submap " + (a.cloud ? b_id + ": " + b.reason : a_id + ": " + a.reason);
-                } else {
-                    const auto pair = maptune::fpfh::register_pair(*a.cloud, *b.cloud, params, settings_, fnv1a(pair_id));
-                    r.matched = pair.matched;
-                    r.status = pair.matched ? PairStatus::kOk
-                               : pair.timed_out ? PairStatus::kTimeout
-                                                : PairStatus::kNoMatch;
-                    r.reason = pair.reason;
-                    for (int i = 0; i < 16; ++i) r.T_a_b[static_cast<std::size_t>(i)] = pair.T_a_b(i / 4, i % 4);
-                }
-            } catch (const std::exception& e) {
-                r.status = PairStatus::kFailed;
-                r.reason = e.what();
-            }
-            r.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            out.pairs.push_back(r);
-        }
-        out.ok = true;
-        return out;
+            const auto pair = maptune::fpfh::register_pair(*a.cloud, *b.cloud, params, settings_, fnv1a(r.pair_id));
+            r.matched = pair.matched;
+            r.status = pair.matched ? PairStatus::kOk : pair.timed_out ? PairStatus::kTimeout : PairStatus::kNoMatch;
+            r.reason = pair.reason;
+            for (int i = 0; i < 16; ++i) r.T_a_b[static_cast<std::size_t>(i)] = pair.T_a_b(i / 4, i % 4);
+        });
     }
 
 private:

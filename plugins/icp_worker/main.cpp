@@ -5,7 +5,6 @@
 //   maptune_icp_worker --space configs/spaces/icp_odometry.yaml --domain 42
 #include <Eigen/Geometry>
 
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -88,36 +87,15 @@ public:
     std::string version() const override { return "1"; }
 
     Outcome run(const Task& task, maptune::sdk::Datasets& datasets) override {
-        Outcome out;
-        const auto ds = datasets.open(task.dataset_id, &out.error);
-        if (!ds) return out;
         const double leaf = task.params.at("voxel_m"), max_dist = task.params.at("max_dist_m");
         const int iterations = static_cast<int>(task.params.at("iterations"));
         const double min_inliers = task.params.at("min_inliers");
-        for (const auto& pair_id : task.pair_ids) {
-            const auto bar = pair_id.find('|');
-            if (bar == std::string::npos) {
-                out.error = "pair id '" + pair_id + "' is not '<submap>|<submap>'";
-                return out;
-            }
-            const std::string a_id = pair_id.substr(0, bar), b_id = pair_id.substr(bar + 1);
-            if (!datasets.ensure_submaps(*ds, {a_id, b_id}, &out.error)) return out;
-            const auto start = std::chrono::steady_clock::now();
-            PairResult r;
-            r.pair_id = pair_id;
-            try {
-                const auto a = ds->load_submap(a_id), b = ds->load_submap(b_id);
-                match(downsample(a.cloud, leaf), downsample(b.cloud, leaf),
-                      a.T_world_submap_odom.inverse() * b.T_world_submap_odom, max_dist, iterations, min_inliers, r);
-            } catch (const std::exception& e) {
-                r.status = PairStatus::kFailed;
-                r.reason = e.what();
-            }
-            r.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            out.pairs.push_back(r);
-        }
-        out.ok = true;
-        return out;
+        return maptune::sdk::run_pairs(task, datasets, [&](const maptune::dataset::Dataset& ds, const std::string& a_id,
+                                                           const std::string& b_id, PairResult& r) {
+            const auto a = ds.load_submap(a_id), b = ds.load_submap(b_id);
+            match(downsample(a.cloud, leaf), downsample(b.cloud, leaf),
+                  a.T_world_submap_odom.inverse() * b.T_world_submap_odom, max_dist, iterations, min_inliers, r);
+        });
     }
 
 private:

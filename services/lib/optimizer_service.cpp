@@ -302,6 +302,9 @@ RunSummary OptimizerService::run() {
                 if (tty) std::cout << "\r\033[K";
                 log("proposal of " + m.request_id() + " can still beat the best on the subset: evaluating the whole view");
             }
+            if (outcome == tuning::ReplyOutcome::kRecalled) {
+                log(std::string("the best's answers on the subset ") + (m.ok() ? "recalled" : "not recallable (" + m.error() + "): judging by the unpaired bound"));
+            }
             if (outcome == tuning::ReplyOutcome::kOtherSet) {
                 log("ignored a reply to " + m.request_id() + " for another parameter set (" + m.params_key() + ")");
             }

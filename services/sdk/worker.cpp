@@ -14,6 +14,39 @@
 
 namespace maptune::sdk {
 
+Outcome run_pairs(const Task& task, Datasets& datasets, const PairMatch& match) {
+    Outcome out;
+    const auto ds = datasets.open(task.dataset_id, &out.error);
+    if (!ds) return out;
+    for (const auto& pair_id : task.pair_ids) {
+        const auto bar = pair_id.find('|');
+        if (bar == std::string::npos) {
+            out.error = "pair id '" + pair_id + "' is not '<submap>|<submap>'";
+            out.pairs.clear();
+            return out;
+        }
+        const std::string a_id = pair_id.substr(0, bar), b_id = pair_id.substr(bar + 1);
+        if (!datasets.ensure_submaps(*ds, {a_id, b_id}, &out.error)) {
+            out.pairs.clear();
+            return out;
+        }
+        const auto start = std::chrono::steady_clock::now();
+        PairResult r;
+        r.pair_id = pair_id;
+        try {
+            match(*ds, a_id, b_id, r);
+        } catch (const std::exception& e) {
+            r.matched = false;
+            r.status = PairStatus::kFailed;
+            r.reason = e.what();
+        }
+        r.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        out.pairs.push_back(std::move(r));
+    }
+    out.ok = true;
+    return out;
+}
+
 namespace {
 
 

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -63,6 +64,14 @@ public:
     // Called from `slots` threads at once; must not throw (failures are outcomes).
     virtual Outcome run(const Task& task, Datasets& datasets) = 0;
 };
+
+// What most matchers do with a task: open its dataset, then for each pair make both submaps
+// available and call `match(dataset, a_id, b_id, result)` (result.pair_id set, status
+// kNoMatch), timing it into result.duration_s. An exception from `match` makes that pair
+// PAIR_FAILED with its message; a malformed pair id or data that cannot be had fails the task.
+using PairMatch = std::function<void(const dataset::Dataset& dataset, const std::string& a_id,
+                                     const std::string& b_id, PairResult& result)>;
+Outcome run_pairs(const Task& task, Datasets& datasets, const PairMatch& match);
 
 struct WorkerConfig {
     std::string space_file;                  // the matcher's design space YAML (required)
