@@ -51,7 +51,8 @@ public:
     // Empty string when `set` holds exactly this space's parameters, each valid; otherwise
     // what is wrong (the first problem found).
     std::string check(const ParameterSet& set) const;
-    // Floats rounded to 2 decimals, integers to integers: the form stored and compared.
+    // Floats rounded to their `decimals` (default 2), integers to integers: the form stored
+    // and compared.
     ParameterSet round(const ParameterSet& set) const;
     // Canonical text of the rounded full set, e.g. "n_C=3;r_N=0.20;..." (sorted by name).
     // Identical on every platform for the same values: used as the observation key.
