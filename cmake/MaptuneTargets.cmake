@@ -54,3 +54,18 @@ function(maptune_test name)
   endif()
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${props})
 endfunction()
+
+# maptune_sdk_header_test(NAME test TARGET plugin SOURCE file): the SDK promise, checked — no
+# DDS header (Fast DDS, Fast CDR, the generated types, maptune's DDS layer) reaches the plug-in's
+# translation unit. The compiler lists every header `file` includes, with exactly the include
+# paths and definitions `plugin` gets (cmake/check_sdk_headers.cmake).
+function(maptune_sdk_header_test)
+  cmake_parse_arguments(ARG "" "NAME;TARGET;SOURCE" "" ${ARGN})
+  add_test(NAME ${ARG_NAME}
+           COMMAND ${CMAKE_COMMAND}
+                   -DCXX=${CMAKE_CXX_COMPILER}
+                   "-DINCLUDES=$<TARGET_PROPERTY:${ARG_TARGET},INCLUDE_DIRECTORIES>"
+                   "-DDEFINES=$<TARGET_PROPERTY:${ARG_TARGET},COMPILE_DEFINITIONS>"
+                   -DSOURCE=${ARG_SOURCE}
+                   -P ${PROJECT_SOURCE_DIR}/cmake/check_sdk_headers.cmake)
+endfunction()

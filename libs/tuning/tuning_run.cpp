@@ -142,8 +142,7 @@ std::vector<Request> TuningRun::ask(int slots, double now_s) {
     // A resumed best has no subset answers (trials.csv keeps none): recall them before any
     // proposal is judged on the subset, once per best.
     const int best = summary_.best;
-    if (options_.fidelity && best >= 0 && !subset_outcomes_.count(best) && !recall_tried_[best]) {
-        recall_tried_[best] = true;
+    if (options_.fidelity && best >= 0 && !subset_outcomes_.count(best) && recalled_.insert(best).second) {
         Recall r;
         r.index = best;
         r.request.id = next_id();
@@ -180,18 +179,16 @@ std::vector<Request> TuningRun::ask(int slots, double now_s) {
 
 std::vector<Request> TuningRun::due_resends(double now_s) {
     std::vector<Request> out;
-    for (auto& [id, r] : recalls_) {
-        if (now_s - r.last_sent_at > options_.resend_s) {
-            r.last_sent_at = now_s;
-            out.push_back(r.request);
+    const auto due = [&](auto& requests) {
+        for (auto& [id, f] : requests) {
+            if (now_s - f.last_sent_at > options_.resend_s) {
+                f.last_sent_at = now_s;
+                out.push_back(f.request);
+            }
         }
-    }
-    for (auto& [id, f] : in_flight_) {
-        if (now_s - f.last_sent_at > options_.resend_s) {
-            f.last_sent_at = now_s;
-            out.push_back(f.request);
-        }
-    }
+    };
+    due(recalls_);
+    due(in_flight_);
     return out;
 }
 

@@ -29,6 +29,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -163,7 +164,7 @@ private:
         double last_sent_at = 0;
     };
     std::map<std::string, Recall> recalls_;  // by request id
-    std::map<int, bool> recall_tried_;       // evaluation index -> asked once already
+    std::set<int> recalled_;                 // evaluation indices whose recall was asked
 };
 
 }  // namespace maptune::tuning

@@ -6,6 +6,7 @@
 
 #include "fpfh_matcher.hpp"
 #include "matcher/cloud_io.hpp"
+#include "measure/measure.hpp"
 
 namespace maptune::fpfh {
 namespace {
@@ -43,9 +44,9 @@ TEST_P(FpfhBunnyPair, RegistersWithinTwoDegreesAndTwoPercent) {
     ASSERT_TRUE(b.cloud) << b.reason;
     const auto r = register_pair(*a.cloud, *b.cloud, bunny_params(), Settings{}, 1);
     ASSERT_TRUE(r.matched) << r.reason;
-    const Eigen::Matrix3d dR = T_ref.topLeftCorner<3, 3>().transpose() * r.T_a_b.topLeftCorner<3, 3>();
-    EXPECT_LT(Eigen::AngleAxisd(dR).angle() * 180.0 / M_PI, 2.0);
-    EXPECT_LT((r.T_a_b.topRightCorner<3, 1>() - T_ref.topRightCorner<3, 1>()).norm(), 0.02 * 0.15);
+    const auto e = measure::pair_error(Eigen::Isometry3d(T_ref), Eigen::Isometry3d(r.T_a_b), 0);
+    EXPECT_LT(e.e_r * 180.0 / M_PI, 2.0);
+    EXPECT_LT(e.e_t, 0.02 * 0.15);
     EXPECT_GT(r.overlap, 0.5);
     // Same input, same seed: the same transform (tasks are replayed after faults).
     const auto again = register_pair(*a.cloud, *b.cloud, bunny_params(), Settings{}, 1);

@@ -20,6 +20,7 @@
 
 #include "fpfh_matcher.hpp"
 #include "matcher/cloud_io.hpp"
+#include "measure/measure.hpp"
 #include "params/parameter_set.hpp"
 #include "params/parameter_space.hpp"
 
@@ -165,10 +166,8 @@ int main(int argc, char** argv) {
                 r.matched ? "match" : "no match", r.reason.empty() ? "" : " - ", r.reason.c_str(),
                 r.correspondences, r.ransac_inliers, r.overlap, r.seconds, fa.seconds + fb.seconds + r.seconds);
     if (have_ref) {
-        const Eigen::Matrix3d dR = T_ref.topLeftCorner<3, 3>().transpose() * r.T_a_b.topLeftCorner<3, 3>();
-        const double rot_deg = Eigen::AngleAxisd(dR).angle() * 180.0 / M_PI;
-        const double trans = (r.T_a_b.topRightCorner<3, 1>() - T_ref.topRightCorner<3, 1>()).norm();
-        std::printf("error: rotation %.3f deg, translation %.4f m\n", rot_deg, trans);
+        const auto e = maptune::measure::pair_error(Eigen::Isometry3d(T_ref), Eigen::Isometry3d(r.T_a_b), 0);
+        std::printf("error: rotation %.3f deg, translation %.4f m\n", e.e_r * 180.0 / M_PI, e.e_t);
     }
     return r.matched ? 0 : 3;
 }

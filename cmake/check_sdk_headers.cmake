@@ -1,4 +1,5 @@
-# cmake -DCXX=... -DINCLUDES=a;b -DDEFINES=X;Y -DSOURCE=main.cpp -P check_headers.cmake
+# cmake -DCXX=... -DINCLUDES=a;b -DDEFINES=X;Y -DSOURCE=main.cpp -P check_sdk_headers.cmake
+# (maptune_sdk_header_test in MaptuneTargets.cmake)
 # Fails when any header main.cpp includes (directly or not) belongs to a DDS implementation
 # or to maptune's DDS layer.
 set(args -std=c++17 -M)
