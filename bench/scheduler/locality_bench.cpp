@@ -2,6 +2,7 @@
 // the real Scheduler (libs/scheduler) with workers whose feature caches are exact:
 //   locality_bench --dataset DIR --view complete --workers 1,2,4,8,16
 //   locality_bench --runs 40 --submaps 40 --view complete          (the moon preset's pairs)
+//   locality_bench --runs 13 --submaps 15 --jitter 0.5 --repeats 20   (shard times vary ±50 %)
 // A worker given a shard spends feature_s per submap of it that it has not computed before
 // and pair_s per pair; it has one slot. The feature duplication factor is the feature
 // computations summed over workers divided by the distinct submaps of the view. Prints one
@@ -15,6 +16,7 @@
 #include <set>
 #include <sstream>
 #include <functional>
+#include <random>
 #include <tuple>
 
 #include "dataset/dataset.hpp"
@@ -40,7 +42,10 @@ struct SimWorker {
 // Runs `jobs` evaluations one after the other (the second and later with the same per-submap
 // parameters: only pair-stage parameters changed, so cached features are reused).
 Outcome simulate(const std::vector<std::string>& pair_ids, int n_workers, bool locality,
-                 std::size_t shard_size, double feature_s, double pair_s, int jobs) {
+                 std::size_t shard_size, double feature_s, double pair_s, int jobs, double jitter,
+                 std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> noise(1.0 - jitter, 1.0 + jitter);
     scheduler::SchedulerOptions options;
     options.shard_size = shard_size;
     options.locality = locality;
@@ -87,6 +92,7 @@ Outcome simulate(const std::vector<std::string>& pair_ids, int n_workers, bool l
                         }
                     }
                 }
+                if (jitter > 0) t *= noise(rng);
                 running.emplace(now + t, w, a.task_id, a.pair_ids);
             }
             if (running.empty()) break;
@@ -122,7 +128,8 @@ int main(int argc, char** argv) {
     std::string dataset_dir, view = "complete", worker_list = "1,2,4,8,16", policy = "both";
     int runs = 0, submaps = 0;
     std::size_t shard_size = 8;
-    double feature_s = 0.25, pair_s = 0.03;
+    double feature_s = 0.25, pair_s = 0.03, jitter = 0;
+    int repeats = 1;
     app.add_option("--dataset", dataset_dir, "dataset directory (its view's pairs)");
     app.add_option("--runs", runs, "synthetic: runs (instead of --dataset)")->check(CLI::Range(1, 10000));
     app.add_option("--submaps", submaps, "synthetic: submaps per run")->check(CLI::Range(2, 10000));
@@ -131,6 +138,10 @@ int main(int argc, char** argv) {
     app.add_option("--shard-size", shard_size, "pairs per shard (sample_db's --shard-size, default 8)");
     app.add_option("--feature-s", feature_s, "seconds per submap's features (default 0.25)")->check(CLI::Range(0.0, 1e4));
     app.add_option("--pair-s", pair_s, "seconds per pair stage (default 0.03)")->check(CLI::Range(0.0, 1e4));
+    app.add_option("--jitter", jitter, "each shard's time times U(1 - J, 1 + J) (default 0: exact)")
+        ->check(CLI::Range(0.0, 0.95));
+    app.add_option("--repeats", repeats, "with --jitter: runs per row (mean of factor and wall)")
+        ->check(CLI::Range(1, 1000));
     app.add_option("--policy", policy, "locality | fifo | both")->check(CLI::IsMember({"locality", "fifo", "both"}));
     CLI11_PARSE(app, argc, argv);
 
@@ -166,7 +177,18 @@ int main(int argc, char** argv) {
             double one = 0;
             for (const int w : counts) {
                 if (w < 1) continue;
-                const Outcome o = simulate(pair_ids, w, locality, shard_size, feature_s, pair_s, 2);
+                Outcome o;
+                for (int k = 0; k < repeats; ++k) {
+                    const Outcome one_run = simulate(pair_ids, w, locality, shard_size, feature_s, pair_s, 2, jitter,
+                                                     static_cast<std::uint64_t>(k + 1));
+                    o.makespan += one_run.makespan / repeats;
+                    o.computations += one_run.computations;
+                    o.distinct = one_run.distinct;
+                    o.warm_computations += one_run.warm_computations;
+                    o.warm_makespan += one_run.warm_makespan / repeats;
+                }
+                o.computations /= static_cast<std::size_t>(repeats);
+                o.warm_computations /= static_cast<std::size_t>(repeats);
                 if (one == 0) one = o.makespan * w;  // first row is the reference when it is 1 worker
                 std::cout << std::fixed << "| " << (locality ? "locality" : "fifo") << " | " << w << " | "
                           << o.computations << " | " << o.distinct << " | " << std::setprecision(3)

@@ -184,6 +184,8 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
             return queued_pairs[component];
         };
         // Costs per pair of the shard (a small tail shard is not cheaper per unit of work).
+        std::string member_best;           // best shard in a component `w` shares already
+        std::size_t member_new = 0, member_pairs = 1;
         std::string best;
         bool best_shared = false;
         std::size_t best_new = 0, best_others = 0, best_pairs = 1, best_left = 0;
@@ -197,10 +199,18 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
                 if (holders[i] > 0) ++others;
             }
             bool shared = false;  // entering a component another worker is in
+            bool member = false;
             if (fresh > 0) {
                 if (const auto c = job.component_workers.find(shard.component); c != job.component_workers.end()) {
-                    shared = c->second.size() > c->second.count(w.info.id);
+                    member = c->second.count(w.info.id) > 0;
+                    shared = c->second.size() > (member ? 1u : 0u);
                 }
+            }
+            const std::size_t pairs = std::max<std::size_t>(1, shard.pairs.size());
+            if (shared && member && (member_best.empty() || fresh * member_pairs < member_new * pairs)) {
+                member_best = task;
+                member_new = fresh;
+                member_pairs = pairs;
             }
             // Joining others: where the most work is left per worker already there.
             std::size_t left = 0;
@@ -208,7 +218,6 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
                 const auto& there = job.component_workers.at(shard.component);
                 left = queued_in(shard.component) / there.size();
             }
-            const std::size_t pairs = std::max<std::size_t>(1, shard.pairs.size());
             const auto a = fresh * best_pairs, b = best_new * pairs;
             const bool better = best.empty() || (shared != best_shared ? !shared
                                                  : a != b              ? a < b
@@ -224,9 +233,213 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
                 if (fresh == 0) break;  // nothing to compute: cannot do better
             }
         }
+        if (best_shared) {
+            const auto& there = job.component_workers.at(shards_.at(best).component);
+            const bool member = there.count(w.info.id) > 0;
+            if (!member && !worth_joining(w, job, shards_.at(best).component, now)) {
+                // Waiting is cheaper than computing others' submaps: keep to its own
+                // components, else take work of a later job or stay free until the next round.
+                if (!member_best.empty()) return member_best;
+                continue;
+            }
+        }
         return best;
     }
     return {};
+}
+
+std::optional<std::pair<double, double>> Scheduler::cost_fit() const {
+    const CostSums& c = cost_;
+    if (c.n == 0) return std::nullopt;
+    const double det = c.ff * c.pp - c.fp * c.fp;
+    // Both unknowns need shards with and without new submaps (fresh not proportional to pairs).
+    if (c.n >= 4 && c.ff > 0 && c.pp > 0 && det > 1e-6 * c.ff * c.pp) {
+        const double a = (c.fd * c.pp - c.pd * c.fp) / det;  // seconds per new submap
+        const double b = (c.pd * c.ff - c.fd * c.fp) / det;  // seconds per pair
+        if (a > 0 && b > 0 && a / b >= 0.1 && a / b <= 1000) return std::make_pair(a, b);
+    }
+    // Otherwise only the scale: duration = b * (kDefaultFeaturePairs * fresh + pairs).
+    const double r = kDefaultFeaturePairs;
+    const double xx = r * r * c.ff + 2 * r * c.fp + c.pp, xd = r * c.fd + c.pd;
+    if (!(xx > 0) || !(xd > 0)) return std::nullopt;
+    return std::make_pair(r * xd / xx, xd / xx);
+}
+
+double Scheduler::feature_cost_in_pairs() const {
+    const auto fit = cost_fit();
+    return fit ? fit->first / fit->second : kDefaultFeaturePairs;
+}
+
+bool Scheduler::worth_joining(const Worker& w, const Job& job, int component, double now) const {
+    // Predicted time, in pairs, for each component's workers to finish it: its queued and
+    // running pairs plus the features of its queued submaps none of them holds, shared among
+    // them. The job ends with the component that finishes last.
+    struct Level {
+        double pairs = 0;  // of queued shards
+        double work = 0;   // left of running shards, in pairs
+        std::set<int> unheld;
+        std::vector<const Shard*> queued;
+        std::set<int> held;  // submaps of queued shards its workers hold
+    };
+    const auto fit = cost_fit();
+    const double r = feature_cost_in_pairs();
+    std::map<int, Level> levels;
+    const std::vector<char>* mine = nullptr;
+    if (const auto h = w.held.find(job.spec.dataset_id); h != w.held.end()) mine = &h->second;
+    auto holds = [](const std::vector<char>* held, int sub) {
+        const auto i = static_cast<std::size_t>(sub);
+        return held != nullptr && i < held->size() && (*held)[i];
+    };
+    for (const auto& id : job.shard_ids) {
+        const Shard& shard = shards_.at(id);
+        if (shard.done) continue;
+        Level& level = levels[shard.component];
+        if (!shard.worker.empty()) {
+            // What is left of it: its expected time less the time it has run (without timings
+            // yet, half of it).
+            const double expected = r * static_cast<double>(shard.fresh) + static_cast<double>(shard.pairs.size());
+            level.work += fit ? std::max(0.0, expected - (now - shard.assigned_at) / fit->second) : expected / 2;
+            continue;
+        }
+        level.pairs += static_cast<double>(shard.pairs.size());
+        level.queued.push_back(&shard);
+        const auto members = job.component_workers.find(shard.component);
+        for (const int sub : shard.submaps) {
+            bool held = false;
+            if (members != job.component_workers.end()) {
+                for (const auto& m : members->second) {
+                    const auto it = workers_.find(m);
+                    if (it == workers_.end()) continue;
+                    const auto h = it->second.held.find(job.spec.dataset_id);
+                    if (h != it->second.held.end() && holds(&h->second, sub)) {
+                        held = true;
+                        break;
+                    }
+                }
+            }
+            (held ? level.held : level.unheld).insert(sub);
+        }
+    }
+    // None of its workers is alive: nobody else would finish it.
+    bool attended = false;
+    if (const auto members = job.component_workers.find(component); members != job.component_workers.end()) {
+        for (const auto& m : members->second) {
+            const auto it = workers_.find(m);
+            attended = attended || (it != workers_.end() && compatible(it->second, job.spec, now));
+        }
+    }
+    if (!attended) return true;
+    auto holders = [&](int c) {
+        const auto it = job.component_workers.find(c);
+        return static_cast<double>(std::max<std::size_t>(1, it == job.component_workers.end() ? 0 : it->second.size()));
+    };
+    // Submaps a newcomer computes for its share of `pairs`, taking shards as pick_for does
+    // (fewest new submaps per pair first): with a complete view about sqrt(share) of the
+    // component's submaps, with subsequent pairs about share of them.
+    std::map<std::pair<int, int>, double> setup_memo;
+    struct Share {
+        double features = 0;   // submaps the newcomer computes for its share, in pairs
+        double duplicate = 0;  // the fraction of them others compute too
+    };
+    std::map<std::pair<int, int>, Share> share_memo;
+    auto share_of = [&](int c, int extra) {
+        const auto key = std::make_pair(c, extra);
+        if (const auto it = share_memo.find(key); it != share_memo.end()) return it->second;
+        const Level& l = levels.at(c);
+        const double share = l.pairs / (holders(c) + extra);
+        std::set<int> got;
+        std::vector<char> taken(l.queued.size(), 0);
+        double pairs = 0;
+        while (pairs < share) {
+            // As pick_for: fewest new submaps per pair, then fewest held by the others.
+            std::size_t pick = l.queued.size(), pick_new = 0, pick_pairs = 1, pick_others = 0;
+            for (std::size_t i = 0; i < l.queued.size(); ++i) {
+                if (taken[i]) continue;
+                std::size_t fresh = 0, others = 0;
+                for (const int sub : l.queued[i]->submaps) {
+                    if (holds(mine, sub) || got.count(sub)) continue;
+                    ++fresh;
+                    others += l.held.count(sub);
+                }
+                const std::size_t n = std::max<std::size_t>(1, l.queued[i]->pairs.size());
+                if (pick == l.queued.size() || fresh * pick_pairs < pick_new * n ||
+                    (fresh * pick_pairs == pick_new * n && others < pick_others)) {
+                    pick = i;
+                    pick_new = fresh;
+                    pick_pairs = n;
+                    pick_others = others;
+                }
+            }
+            if (pick == l.queued.size()) break;
+            taken[pick] = 1;
+            pairs += static_cast<double>(l.queued[pick]->pairs.size());
+            for (const int sub : l.queued[pick]->submaps) {
+                if (!holds(mine, sub)) got.insert(sub);
+            }
+        }
+        // Computed by others too: held by them already, or needed by the shards left to them.
+        std::set<int> theirs = l.held;
+        for (std::size_t i = 0; i < l.queued.size(); ++i) {
+            if (!taken[i]) theirs.insert(l.queued[i]->submaps.begin(), l.queued[i]->submaps.end());
+        }
+        std::size_t twice = 0;
+        for (const int sub : got) twice += theirs.count(sub);
+        Share out;
+        out.features = r * static_cast<double>(got.size());
+        out.duplicate = got.empty() ? 0.0 : static_cast<double>(twice) / static_cast<double>(got.size());
+        return share_memo[key] = out;
+    };
+    auto setup = [&](int c, int extra) { return share_of(c, extra).features; };
+    // The component's end with `extra` newcomers: its workers share the rest, each newcomer also
+    // computes the submaps of its share.
+    auto finish = [&](int c, int extra) {
+        const Level& l = levels.at(c);
+        const double alone = r * static_cast<double>(l.unheld.size()) + l.pairs + l.work;
+        const double members = alone / (holders(c) + extra);
+        return extra == 0 ? members : std::max(members, setup(c, extra) + l.pairs / (holders(c) + extra));
+    };
+    // Free slots of workers that can run the job, this one among them: the newcomers there are.
+    int helpers = 0;
+    for (const auto& [id, other] : workers_) {
+        if (!compatible(other, job.spec, now)) continue;
+        helpers += std::max(0, other.info.slots - static_cast<int>(other.tasks.size()));
+    }
+    // Water filling: each newcomer joins the component that would finish last, while that
+    // shortens it.
+    std::map<int, int> added;
+    double before = 0;
+    for (const auto& [c, l] : levels) before = std::max(before, finish(c, 0));
+    for (int k = 0; k < helpers; ++k) {
+        int worst = -1;
+        double worst_t = -1;
+        for (const auto& [c, l] : levels) {
+            const double t = finish(c, added[c]);
+            if (t > worst_t) {
+                worst = c;
+                worst_t = t;
+            }
+        }
+        if (levels.at(worst).queued.empty() || finish(worst, added[worst] + 1) >= worst_t) break;
+        ++added[worst];
+    }
+    double after = 0;
+    for (const auto& [c, l] : levels) after = std::max(after, finish(c, added[c]));
+    // Worth it when the evaluation ends sooner by more than a newcomer spends on features that
+    // others compute too (duplicated work must buy at least as much wall time), and by at least
+    // a pair's time (below what the estimate resolves; ties are no gain).
+    double twice = 0;
+    int newcomers = 0;
+    for (const auto& [c, k] : added) {
+        if (k == 0) continue;
+        const Share sh = share_of(c, k);
+        twice += k * sh.features * sh.duplicate;
+        newcomers += k;
+    }
+    const double gain = before - after;
+    if (added[component] > 0 && gain > std::max(1.0, twice / std::max(1, newcomers))) return true;
+    // Or cheap: few of the submaps it would compute are computed by others too (a stretch of
+    // subsequent pairs), so joining costs little even where it does not move the end.
+    return share_of(component, 1).duplicate <= options_.join_duplication;
 }
 
 bool Scheduler::submit(const std::string& job_key, JobSpec spec, const std::string& requester,
@@ -315,6 +528,15 @@ std::vector<Assignment> Scheduler::schedule(double now) {
         Job& job = jobs_.at(shard.job_key);
         job.queued.erase(std::find(job.queued.begin(), job.queued.end(), task));
         shard.worker = w->info.id;
+        shard.fresh = 0;
+        if (const auto h = w->held.find(job.spec.dataset_id); h != w->held.end()) {
+            for (const int id : shard.submaps) {
+                const auto i = static_cast<std::size_t>(id);
+                if (i >= h->second.size() || !h->second[i]) ++shard.fresh;
+            }
+        } else {
+            shard.fresh = shard.submaps.size();
+        }
         ++shard.attempts;
         shard.assigned_at = now;
         w->tasks.insert(task);
@@ -419,6 +641,16 @@ std::optional<CompletedJob> Scheduler::complete(const std::string& task_id,
                     now);
     }
     if (auto w = workers_.find(worker_id); w != workers_.end()) w->second.last_seen = now;
+    if (shard.worker == worker_id && now > shard.assigned_at) {
+        const double f = static_cast<double>(shard.fresh), p = static_cast<double>(shard.pairs.size());
+        const double d = now - shard.assigned_at;
+        cost_.ff += f * f;
+        cost_.fp += f * p;
+        cost_.pp += p * p;
+        cost_.fd += f * d;
+        cost_.pd += p * d;
+        ++cost_.n;
+    }
     Job& job = jobs_.at(shard.job_key);
     for (std::size_t i = 0; i < results.size(); ++i) {
         store::PairRecord& slot = job.pairs[shard.pairs[i]];

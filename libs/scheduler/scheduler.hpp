@@ -42,6 +42,9 @@ struct SchedulerOptions {
     // false: shards of consecutive pairs handed out oldest first to the least loaded worker
     // (no regard to submaps; for measuring what locality gains).
     bool locality = true;
+    // A worker joins others' component also when at most this fraction of the submaps its
+    // share needs are computed by them too (docs/distributed.md, "Locality").
+    double join_duplication = 0.1;
 };
 
 struct WorkerInfo {
@@ -146,6 +149,14 @@ public:
     int free_slots() const;
     // Completed jobs from schedule() (empty jobs) since the last call.
     std::vector<CompletedJob> take_completed();
+    // The time of one submap's features in units of one pair's stage, learnt from the
+    // delivered shards' durations (least squares on submaps new to the worker and pairs);
+    // kDefaultFeaturePairs until shards with different shares of new submaps were timed.
+    double feature_cost_in_pairs() const;
+    static constexpr double kDefaultFeaturePairs = 8.0;  // reference matcher, lab (BENCHMARKS)
+    // Seconds per new submap and per pair (the fit behind feature_cost_in_pairs); before shards
+    // tell them apart, only their scale is fitted with kDefaultFeaturePairs. None before any.
+    std::optional<std::pair<double, double>> cost_fit() const;
 
 private:
     struct Shard {
@@ -155,6 +166,7 @@ private:
         std::vector<int> submaps;        // distinct submaps it touches (SubmapIndex numbers)
         int component = 0;               // of the job's pair graph (PlannedShard)
         std::string worker;              // empty while queued
+        std::size_t fresh = 0;           // submaps new to its worker when assigned (held proxy)
         int attempts = 0;
         double assigned_at = 0;
         bool done = false;
@@ -195,8 +207,15 @@ private:
     // The queued shard `w` should run next, of the oldest job with a shard `w` can run: one
     // that needs no submap `w` lacks, else one in a component no other worker was given
     // shards of (runs are shared out whole); then the fewest submaps `w` lacks per pair, the
-    // fewest of those held by others, the oldest. Empty when none.
+    // fewest of those held by others, the oldest. A shard that makes `w` join others' component
+    // only when worth_joining says so. Empty when none.
     std::string pick_for(const Worker& w, double now) const;
+    // Whether `w`, in none of them yet, should join the workers of `component` (computing
+    // submaps they hold) rather than wait: when the free workers, each joining the component
+    // that would finish last, end the job sooner by more than a newcomer's duplicated features
+    // take, or when its share needs few submaps others compute too (docs/distributed.md,
+    // "Locality").
+    bool worth_joining(const Worker& w, const Job& job, int component, double now) const;
     void hold(Worker& w, const Shard& shard, Job& job);
     void forget(Worker& w);
 
@@ -208,6 +227,11 @@ private:
     std::map<std::string, Worker> workers_;
     std::map<std::string, SubmapIndex> submaps_;  // by dataset id
     std::vector<CompletedJob> completed_;
+    // Sums for the least-squares fit duration = a * fresh submaps + b * pairs.
+    struct CostSums {
+        double ff = 0, fp = 0, pp = 0, fd = 0, pd = 0;
+        std::size_t n = 0;
+    } cost_;
 };
 
 }  // namespace maptune::scheduler

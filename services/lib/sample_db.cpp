@@ -1,6 +1,7 @@
 #include "sample_db.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 
 #include "dds/convert.hpp"
@@ -342,6 +343,13 @@ void SampleDb::finish(scheduler::CompletedJob job) {
         known_.erase(it);
     }
     o.wall_seconds = job.finished_at - job.started_at;
+    if (options_.log && job.spec.pair_ids.size() >= 2 * options_.scheduler.shard_size) {
+        // What the locality rule assumed (docs/distributed.md, "Locality"), for whoever tunes a cluster.
+        char line[160];
+        std::snprintf(line, sizeof line, "%zu pairs in %.1f s; a submap's features cost %.1f pairs (learnt)",
+                      job.spec.pair_ids.size(), o.wall_seconds, scheduler_.feature_cost_in_pairs());
+        options_.log(line);
+    }
     // Timeouts depend on the machine's load and worker failures on the worker: the requesters
     // get the answer, the store does not keep it, and a later request runs the matcher again.
     const bool transient = job.worker_failures || store::has_timeouts(o.pairs);

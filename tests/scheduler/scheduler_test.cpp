@@ -507,9 +507,28 @@ TEST(ShardPlanner, SmallComponentsArePackedAndOneShardPerComponentWithoutASize) 
     EXPECT_EQ(plan_shards(complete_view(2, 4), 0).size(), 1u) << "0: everything in one shard";
 }
 
-// Workers run shards in simulated time (one slot each, a shard takes time per pair and per
-// submap the worker has not computed); returns feature computations / distinct submaps.
-double duplication(const std::vector<std::string>& ids, int n_workers, bool locality) {
+// The subsequent view of `runs` runs of `submaps` submaps: each submap with the next.
+std::vector<std::string> subsequent_view(int runs, int submaps) {
+    std::vector<std::string> ids;
+    for (int r = 0; r < runs; ++r) {
+        for (int a = 0; a + 1 < submaps; ++a) {
+            ids.push_back("r" + std::to_string(r) + "s" + std::to_string(a) + "|r" + std::to_string(r) + "s" +
+                          std::to_string(a + 1));
+        }
+    }
+    return ids;
+}
+
+struct Simulated {
+    double duplication = 0;  // feature computations / distinct submaps
+    double makespan = 0;     // simulated seconds
+    double learnt = 0;       // the scheduler's feature_cost_in_pairs() at the end
+};
+
+// Workers run shards in simulated time (one slot each, a shard takes `pair_s` per pair and
+// `feature_s` per submap the worker has not computed).
+Simulated simulate(const std::vector<std::string>& ids, int n_workers, bool locality, double feature_s = 0.25,
+                   double pair_s = 0.03) {
     SchedulerOptions options;
     options.shard_size = 8;
     options.locality = locality;
@@ -530,11 +549,11 @@ double duplication(const std::vector<std::string>& ids, int n_workers, bool loca
         beat(now);
         for (auto& a : s.schedule(now)) {
             const std::size_t w = std::stoul(a.worker_id.substr(1)) - 10;
-            double t = 0.03 * static_cast<double>(a.pair_ids.size());
+            double t = pair_s * static_cast<double>(a.pair_ids.size());
             for (const auto& sub : submaps_of(a.pair_ids)) {
                 if (caches[w].insert(sub).second) {
                     ++computed;
-                    t += 0.25;
+                    t += feature_s;
                 }
             }
             // Distinct finish times: ties broken by worker.
@@ -548,7 +567,12 @@ double duplication(const std::vector<std::string>& ids, int n_workers, bool loca
         for (std::size_t k = 0; k < results.size(); ++k) results[k].pair_id = next.second.pair_ids[k];
         if (s.complete(next.second.task_id, name(next.first), results, now)) break;
     }
-    return static_cast<double>(computed) / static_cast<double>(submaps_of(ids).size());
+    return {static_cast<double>(computed) / static_cast<double>(submaps_of(ids).size()), now,
+            s.feature_cost_in_pairs()};
+}
+
+double duplication(const std::vector<std::string>& ids, int n_workers, bool locality) {
+    return simulate(ids, n_workers, locality).duplication;
 }
 
 TEST(Scheduler, WorkersKeepToTheirSubmaps) {
@@ -560,6 +584,40 @@ TEST(Scheduler, WorkersKeepToTheirSubmaps) {
     EXPECT_LE(with, 1.1);
     EXPECT_GT(without, 2.5);
     EXPECT_DOUBLE_EQ(duplication(ids, 1, true), 1.0);
+}
+
+TEST(Scheduler, AWorkerJoinsOthersOnlyWhereThatEndsTheJobSooner) {
+    // The lab's 13 runs on 8 workers: 5 runs are left for the second round and 3 workers are
+    // free. Splitting 3 of the 5 runs cannot end the evaluation sooner (the other two still take
+    // a whole run), and each split costs ~11 of a run's 15 submaps twice.
+    const auto ids = complete_view(13, 15);
+    const Simulated eight = simulate(ids, 8, true);
+    EXPECT_LE(eight.duplication, 1.1);
+    EXPECT_LE(eight.makespan, 2 * simulate(complete_view(1, 15), 1, true).makespan + 1e-6)
+        << "two rounds of runs, nothing longer";
+    // 2 long runs on 8 workers: splitting them ends the evaluation much sooner than a worker
+    // per run would (~0.65 of a run's time), more than the features computed twice take.
+    const Simulated split = simulate(complete_view(2, 40), 8, true);
+    EXPECT_GT(split.duplication, 1.5);
+    EXPECT_LT(split.makespan, 0.8 * simulate(complete_view(1, 40), 1, true).makespan);
+}
+
+TEST(Scheduler, WorkersShareStretchesOfSubsequentPairsAtLittleCost) {
+    // 5 chains of 40 submaps on 8 workers: a newcomer's stretch needs one submap another worker
+    // computes too, so free workers join even where the water level would not move.
+    const auto ids = subsequent_view(5, 40);
+    const Simulated eight = simulate(ids, 8, true);
+    const double one_run = simulate(subsequent_view(1, 40), 1, true).makespan;
+    EXPECT_LE(eight.duplication, 1.1);
+    EXPECT_LT(eight.makespan, 0.9 * one_run) << "more than one worker per chain";
+}
+
+TEST(Scheduler, LearnsWhatASubmapsFeaturesCostFromShardDurations) {
+    // Features 0.5 s, pairs 0.05 s: a submap costs 10 pairs, not the default 8.
+    const Simulated run = simulate(complete_view(4, 15), 2, true, 0.5, 0.05);
+    EXPECT_NEAR(run.learnt, 10.0, 0.5);
+    Scheduler fresh;
+    EXPECT_DOUBLE_EQ(fresh.feature_cost_in_pairs(), Scheduler::kDefaultFeaturePairs);
 }
 
 }  // namespace
