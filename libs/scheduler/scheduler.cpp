@@ -100,6 +100,21 @@ std::vector<PlannedShard> plan_shards(const std::vector<std::string>& pair_ids, 
     return shards;
 }
 
+namespace {
+
+// A worker's submaps of one dataset (sample_db's proxy for its feature cache), or none.
+const std::vector<char>* held_of(const std::map<std::string, std::vector<char>>& held, const std::string& dataset_id) {
+    const auto it = held.find(dataset_id);
+    return it == held.end() ? nullptr : &it->second;
+}
+
+bool holds(const std::vector<char>* held, int submap) {
+    const auto i = static_cast<std::size_t>(submap);
+    return held != nullptr && i < held->size() && (*held)[i];
+}
+
+}  // namespace
+
 Scheduler::Scheduler(SchedulerOptions options) : options_(options) {
     if (options_.max_attempts < 1) options_.max_attempts = 1;
 }
@@ -168,8 +183,7 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
         const Job& job = jobs_.at(key);
         if (job.queued.empty() || !compatible(w, job.spec, now)) continue;
         if (!options_.locality) return job.queued.front();
-        const auto held_it = w.held.find(job.spec.dataset_id);
-        const std::vector<char>* held = held_it == w.held.end() ? nullptr : &held_it->second;
+        const std::vector<char>* held = held_of(w.held, job.spec.dataset_id);
         const std::vector<int>& holders = submaps_.at(job.spec.dataset_id).holders;
         // Per component: queued work a newcomer could share; counted only when some shard
         // would make `w` join other workers (most picks end at a shard needing nothing new).
@@ -193,10 +207,9 @@ std::string Scheduler::pick_for(const Worker& w, double now) const {
             const Shard& shard = shards_.at(task);
             std::size_t fresh = 0, others = 0;  // submaps new to w; of those, held by others
             for (const int id : shard.submaps) {
-                const auto i = static_cast<std::size_t>(id);
-                if (held != nullptr && i < held->size() && (*held)[i]) continue;
+                if (holds(held, id)) continue;
                 ++fresh;
-                if (holders[i] > 0) ++others;
+                if (holders[static_cast<std::size_t>(id)] > 0) ++others;
             }
             bool shared = false;  // entering a component another worker is in
             bool member = false;
@@ -284,12 +297,16 @@ bool Scheduler::worth_joining(const Worker& w, const Job& job, int component, do
     const auto fit = cost_fit();
     const double r = feature_cost_in_pairs();
     std::map<int, Level> levels;
-    const std::vector<char>* mine = nullptr;
-    if (const auto h = w.held.find(job.spec.dataset_id); h != w.held.end()) mine = &h->second;
-    auto holds = [](const std::vector<char>* held, int sub) {
-        const auto i = static_cast<std::size_t>(sub);
-        return held != nullptr && i < held->size() && (*held)[i];
-    };
+    const std::vector<char>* mine = held_of(w.held, job.spec.dataset_id);
+    // Per component, its workers' submaps (looked up once, not per submap).
+    std::map<int, std::vector<const std::vector<char>*>> members_held;
+    for (const auto& [c, members] : job.component_workers) {
+        for (const auto& m : members) {
+            if (const auto it = workers_.find(m); it != workers_.end()) {
+                members_held[c].push_back(held_of(it->second.held, job.spec.dataset_id));
+            }
+        }
+    }
     for (const auto& id : job.shard_ids) {
         const Shard& shard = shards_.at(id);
         if (shard.done) continue;
@@ -303,20 +320,9 @@ bool Scheduler::worth_joining(const Worker& w, const Job& job, int component, do
         }
         level.pairs += static_cast<double>(shard.pairs.size());
         level.queued.push_back(&shard);
-        const auto members = job.component_workers.find(shard.component);
+        const auto& theirs = members_held[shard.component];
         for (const int sub : shard.submaps) {
-            bool held = false;
-            if (members != job.component_workers.end()) {
-                for (const auto& m : members->second) {
-                    const auto it = workers_.find(m);
-                    if (it == workers_.end()) continue;
-                    const auto h = it->second.held.find(job.spec.dataset_id);
-                    if (h != it->second.held.end() && holds(&h->second, sub)) {
-                        held = true;
-                        break;
-                    }
-                }
-            }
+            const bool held = std::any_of(theirs.begin(), theirs.end(), [&](const auto* h) { return holds(h, sub); });
             (held ? level.held : level.unheld).insert(sub);
         }
     }
@@ -336,7 +342,6 @@ bool Scheduler::worth_joining(const Worker& w, const Job& job, int component, do
     // Submaps a newcomer computes for its share of `pairs`, taking shards as pick_for does
     // (fewest new submaps per pair first): with a complete view about sqrt(share) of the
     // component's submaps, with subsequent pairs about share of them.
-    std::map<std::pair<int, int>, double> setup_memo;
     struct Share {
         double features = 0;   // submaps the newcomer computes for its share, in pairs
         double duplicate = 0;  // the fraction of them others compute too
@@ -389,14 +394,13 @@ bool Scheduler::worth_joining(const Worker& w, const Job& job, int component, do
         out.duplicate = got.empty() ? 0.0 : static_cast<double>(twice) / static_cast<double>(got.size());
         return share_memo[key] = out;
     };
-    auto setup = [&](int c, int extra) { return share_of(c, extra).features; };
     // The component's end with `extra` newcomers: its workers share the rest, each newcomer also
     // computes the submaps of its share.
     auto finish = [&](int c, int extra) {
         const Level& l = levels.at(c);
         const double alone = r * static_cast<double>(l.unheld.size()) + l.pairs + l.work;
         const double members = alone / (holders(c) + extra);
-        return extra == 0 ? members : std::max(members, setup(c, extra) + l.pairs / (holders(c) + extra));
+        return extra == 0 ? members : std::max(members, share_of(c, extra).features + l.pairs / (holders(c) + extra));
     };
     // Free slots of workers that can run the job, this one among them: the newcomers there are.
     int helpers = 0;
@@ -528,15 +532,9 @@ std::vector<Assignment> Scheduler::schedule(double now) {
         Job& job = jobs_.at(shard.job_key);
         job.queued.erase(std::find(job.queued.begin(), job.queued.end(), task));
         shard.worker = w->info.id;
-        shard.fresh = 0;
-        if (const auto h = w->held.find(job.spec.dataset_id); h != w->held.end()) {
-            for (const int id : shard.submaps) {
-                const auto i = static_cast<std::size_t>(id);
-                if (i >= h->second.size() || !h->second[i]) ++shard.fresh;
-            }
-        } else {
-            shard.fresh = shard.submaps.size();
-        }
+        const std::vector<char>* held = held_of(w->held, job.spec.dataset_id);
+        shard.fresh = static_cast<std::size_t>(
+            std::count_if(shard.submaps.begin(), shard.submaps.end(), [&](int id) { return !holds(held, id); }));
         ++shard.attempts;
         shard.assigned_at = now;
         w->tasks.insert(task);
