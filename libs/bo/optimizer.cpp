@@ -64,16 +64,17 @@ Eigen::VectorXd copula(const Eigen::VectorXd& y) {
 // and get zero gradient because the model input is piecewise constant in them.
 // log P(live) = log Φ(μ / √(s0² + σ²)) of the dead-region classifier, and its gradient.
 constexpr double kLiveScale2 = 0.25;  // s0²: labels ±1, so μ = ±1 means P ≈ 0.98 / 0.02
-double log_live(const gp::PointPrediction& p, Eigen::VectorXd* grad) {
+double log_live(const gp::PointPrediction& p, double prior, Eigen::VectorXd* grad) {
     const double s = std::sqrt(kLiveScale2 + std::max(0.0, p.variance));
-    const double t = p.mean / s;
+    const double mean = p.mean + prior;
+    const double t = mean / s;
     const double cdf = 0.5 * std::erfc(-t / std::sqrt(2.0));
     const double log_cdf = cdf > 1e-300 ? std::log(cdf) : -690.0;
     if (grad) {
         const double pdf = std::exp(-0.5 * t * t) / std::sqrt(2.0 * M_PI);
         const double ratio = cdf > 1e-300 ? pdf / cdf : std::max(-t, 0.0);  // Mills ratio tail
         // dt = (μ' s − μ s') / s², s' = σ²' / (2 s)
-        *grad = ratio * (p.mean_gradient * s - p.mean * p.variance_gradient / (2.0 * s)) / (s * s);
+        *grad = ratio * (p.mean_gradient * s - mean * p.variance_gradient / (2.0 * s)) / (s * s);
     }
     return log_cdf;
 }
@@ -90,6 +91,7 @@ struct AcquisitionObjective {
     const SearchSpace& space;
     const AcquisitionContext& ctx;
     const gp::GaussianProcess* live = nullptr;
+    double live_prior = 0.0;
     double best_value = -std::numeric_limits<double>::infinity();
     Eigen::VectorXd best_u;
 
@@ -99,7 +101,7 @@ struct AcquisitionObjective {
         double value = acquisition_value(ctx, gp.predict_with_gradient(g), &acq_grad);
         if (live && (ctx.kind == Acquisition::log_ei || ctx.kind == Acquisition::ei) && std::isfinite(value)) {
             Eigen::VectorXd lg;
-            const double lp = log_live(live->predict_with_gradient(g), &lg);
+            const double lp = log_live(live->predict_with_gradient(g), live_prior, &lg);
             if (ctx.kind == Acquisition::log_ei) {
                 acq_grad += lg;
             } else {
@@ -407,27 +409,22 @@ Optimizer::Model Optimizer::build_model() {
         cache_n_ = nu;
     }
     Model m{std::move(model), best, std::nullopt};
-    if (options_.dead_value) {
-        std::size_t dead = 0;
-        Eigen::VectorXd labels(n);
-        for (Eigen::Index k = 0; k < n; ++k) {
-            const bool d_k = is_dead(observations_[static_cast<std::size_t>(k)]);
-            labels(k) = d_k ? -1.0 : 1.0;
-            dead += d_k ? 1 : 0;
+    Eigen::VectorXd labels;
+    double prior = 0.0;
+    if (live_labels(labels, prior)) {
+        // Labels in their own units (no standardization: ±1 is the scale of s0).
+        gp::GpOptions lo = options_.gp;
+        lo.mean = gp::MeanKind::zero;
+        lo.fit.max_length_scale = options_.live_max_length_scale;
+        gp::GaussianProcess live(d, lo);
+        if (live_hp_.length_scales.size() == d) live.set_hyperparameters(live_hp_);
+        live.set_data(x, labels);
+        if (live_fit_n_ == 0 || (refit && n >= 2)) {
+            live_hp_ = live.fit(mix(options_.seed, 3000 + nu)).hyperparameters;
+            live_fit_n_ = nu;
         }
-        if (dead > 0 && dead < nu) {
-            // Labels in their own units (no standardization: ±1 is the scale of s0).
-            gp::GpOptions lo = options_.gp;
-            lo.mean = gp::MeanKind::zero;
-            gp::GaussianProcess live(d, lo);
-            if (live_hp_.length_scales.size() == d) live.set_hyperparameters(live_hp_);
-            live.set_data(x, labels);
-            if (live_fit_n_ == 0 || (refit && n >= 2)) {
-                live_hp_ = live.fit(mix(options_.seed, 3000 + nu)).hyperparameters;
-                live_fit_n_ = nu;
-            }
-            m.live = std::move(live);
-        }
+        m.live = std::move(live);
+        m.live_prior = prior;
     }
     // Kriging believer: pending points enter with their predicted value, which shrinks the
     // variance around them so that the next proposal goes elsewhere.
@@ -554,7 +551,7 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
             gp::PointPrediction p;
             p.mean = lm(i);
             p.variance = lv(i);
-            if (std::isfinite(acq(i))) weigh_by_live(ctx, log_live(p, nullptr), acq(i));
+            if (std::isfinite(acq(i))) weigh_by_live(ctx, log_live(p, model.live_prior, nullptr), acq(i));
         }
     }
     const double minus_inf = -std::numeric_limits<double>::infinity();
@@ -595,7 +592,8 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
                 lb(j) = ub(j) = cand_u(j, c);
         }
         LBFGSpp::LBFGSBSolver<double> solver(param);
-        AcquisitionObjective objective{model.gp, space_, ctx, model.live ? &*model.live : nullptr};
+        AcquisitionObjective objective{model.gp, space_, ctx, model.live ? &*model.live : nullptr,
+                                       model.live_prior};
         Eigen::VectorXd u = cand_u.col(c);
         double fx = 0.0;
         try {
@@ -709,12 +707,60 @@ void Optimizer::add_observation(const Observation& observation) {
     observations_.push_back(std::move(o));
 }
 
+bool Optimizer::live_labels(Eigen::VectorXd& labels, double& prior) const {
+    if (!options_.dead_value) return false;
+    const std::size_t n = observations_.size();
+    const std::size_t design = std::min(n, static_cast<std::size_t>(initial_points()));
+    std::size_t dead = 0, design_live = 0;
+    labels.resize(static_cast<Eigen::Index>(n));
+    for (std::size_t k = 0; k < n; ++k) {
+        const bool d_k = is_dead(observations_[k]);
+        labels(static_cast<Eigen::Index>(k)) = d_k ? -1.0 : 1.0;
+        dead += d_k ? 1 : 0;
+        if (k < design && !d_k) ++design_live;
+    }
+    if (dead == 0 || dead == n) return false;
+    // Far from every label P(live) falls to the share of live results in the design (the one
+    // unbiased sample of the box: model proposals crowd the live region), by Laplace's rule so
+    // that an all-dead design still leaves a chance.
+    const double share = (static_cast<double>(design_live) + 1.0) / (static_cast<double>(design) + 2.0);
+    prior = 2.0 * share - 1.0;
+    labels.array() -= prior;
+    return true;
+}
+
+std::vector<double> Optimizer::live_probability(const std::vector<std::vector<double>>& points) const {
+    Eigen::VectorXd labels;
+    double prior = 0.0;
+    if (live_fit_n_ == 0 || live_hp_.length_scales.size() != space_.dim() || !live_labels(labels, prior))
+        return {};
+    gp::GpOptions lo = options_.gp;
+    lo.mean = gp::MeanKind::zero;
+    gp::GaussianProcess live(space_.dim(), lo);
+    live.set_hyperparameters(live_hp_);
+    Eigen::MatrixXd x(space_.dim(), labels.size());
+    for (Eigen::Index k = 0; k < labels.size(); ++k) x.col(k) = observed_points_[static_cast<std::size_t>(k)].g;
+    if (!live.set_data(x, labels)) return {};
+    std::vector<double> out;
+    for (const auto& values : points) {
+        const Eigen::VectorXd g = space_.to_model_input(space_.from_values(space_.canonical(values)));
+        Eigen::VectorXd mean, var;
+        live.predict(g, mean, var);
+        gp::PointPrediction p;
+        p.mean = mean(0);
+        p.variance = var(0);
+        out.push_back(std::exp(log_live(p, prior, nullptr)));
+    }
+    return out;
+}
+
 bool Optimizer::is_dead(const Observation& o) const {
     return o.failed || (options_.dead_value && internal(o.value) <= internal(*options_.dead_value));
 }
 
 bool Optimizer::has_success() const {
-    return std::any_of(observations_.begin(), observations_.end(), [](const Observation& o) { return !o.failed; });
+    return std::any_of(observations_.begin(), observations_.end(),
+                       [this](const Observation& o) { return !is_dead(o); });
 }
 
 void Optimizer::replay(const std::vector<Observation>& history, const std::vector<std::string>& origins) {

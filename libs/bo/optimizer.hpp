@@ -78,6 +78,10 @@ struct OptimizerOptions {
     // σ²)), and EI / log-EI are weighted by it (as constrained BO weighs by the probability of
     // feasibility), so whole dead regions stop attracting proposals. Empty: off.
     std::optional<double> dead_value;
+    // Longest length scale (unit cube) the classifier may fit. Fitted freely, it called every
+    // dimension its few labels never showed varying irrelevant and rated proposals far along
+    // it as surely live as the live cluster itself (BENCHMARKS.md, "Dead regions").
+    double live_max_length_scale = 1.0;
     gp::GpOptions gp;
     std::uint64_t seed = 0;
 };
@@ -153,6 +157,9 @@ class Optimizer {
     // fit, with every observation in the model as when proposing (failures at the worst
     // value; no pending points). Empty until two successful observations exist.
     std::vector<PosteriorPoint> posterior(const std::vector<std::vector<double>>& points) const;
+    // The dead-region classifier's P(live) at `points` under its last fit (what weighs the
+    // acquisition). Empty while it is not in use (no dead_value, or not both kinds observed).
+    std::vector<double> live_probability(const std::vector<std::vector<double>>& points) const;
     int initial_points() const;
     // The output warping in use since the last refit: "none", "log(c = 0.1 range)", "copula".
     std::string warping_in_use() const;
@@ -174,8 +181,12 @@ class Optimizer {
         gp::GaussianProcess gp;
         double incumbent;  // best internal value incl. fantasies
         std::optional<gp::GaussianProcess> live;  // the dead-region classifier, when in use
+        double live_prior = 0.0;  // its prior mean (label units), added to its predictions
     };
     bool is_dead(const Observation& o) const;
+    // The classifier's training labels (+1 live, −1 dead, minus the prior) and its prior mean;
+    // false while it is not in use.
+    bool live_labels(Eigen::VectorXd& labels, double& prior) const;
 
     // A monotone map of internal values (larger is better) that the GP models: identity, or
     // z = −log(best − v + c) with c = alpha × (best − worst).
@@ -196,7 +207,9 @@ class Optimizer {
     bool is_taken(const Eigen::VectorXd& g) const;
     bool near_failure(const Eigen::VectorXd& g) const;
     Eigen::VectorXd next_design_point();
-    bool has_success() const;  // some observation did not fail (the model needs one)
+    // Some observation is live (neither failed nor at the dead value): until then every
+    // value is the same to a model, and the quasi-random design goes on.
+    bool has_success() const;
     Model build_model();
     // Model inputs and internal values of every observation (failures at the worst value)
     // and the best internal value.

@@ -167,6 +167,55 @@ TEST(OptimizerTest, DeadRegionModelKeepsProposalsOutOfDeadRegions) {
     EXPECT_LT(with, without);
 }
 
+// Issue 15: while every result is dead (the moon's baseline and whole design matched nothing)
+// all values are the same to a model, which then sent its proposals to corners; the
+// quasi-random design goes on until a live result exists, then the model takes over.
+TEST(OptimizerTest, UntilALiveResultTheDesignGoesOn) {
+    const std::vector<ParameterSpec> specs = {{"x1", 0, 1}, {"x2", 0, 1}};
+    OptimizerOptions o = fast_options(3);
+    o.direction = Direction::maximize;
+    o.initial_points = 5;
+    o.dead_value = 0.0;
+    Optimizer opt(specs, o);
+    for (int i = 0; i < 12; ++i) {
+        const Proposal p = opt.ask(1)[0];
+        EXPECT_EQ(p.origin, "initial") << "proposal " << i;
+        opt.tell(p.id, i == 11 ? 0.5 : 0.0);
+    }
+    EXPECT_EQ(opt.ask(1)[0].origin, "model");
+    // Without a dead value, equal values are a result like any other: the model proposes.
+    o.dead_value.reset();
+    Optimizer plain(specs, o);
+    for (int i = 0; i < 5; ++i) plain.tell(plain.ask(1)[0].id, 0.0);
+    EXPECT_EQ(plain.ask(1)[0].origin, "model");
+}
+
+// Issue 15: the labels below never vary along x3 where results are live (all at x3 = 0.2); a
+// classifier that fitted x3 away as irrelevant rated (0.25, 0.25, 0.95) as surely live as the
+// cluster itself. Far from its labels P(live) must fall towards the design's share of live
+// results (none of six here).
+TEST(OptimizerTest, DeadRegionClassifierDoesNotExtrapolateAlongUnseenDimensions) {
+    const std::vector<ParameterSpec> specs = {{"x1", 0, 1}, {"x2", 0, 1}, {"x3", 0, 1}};
+    std::vector<Observation> history;
+    for (const auto& x : std::vector<std::vector<double>>{{0.8, 0.2, 0.5}, {0.7, 0.7, 0.1}, {0.9, 0.5, 0.9},
+                                                          {0.65, 0.9, 0.3}, {0.9, 0.9, 0.6}, {0.75, 0.1, 0.2}})
+        history.push_back({x, 0.0, false, ""});
+    for (double a : {0.1, 0.25, 0.4})
+        for (double b : {0.1, 0.25, 0.4}) history.push_back({{a, b, 0.2}, 1.0 + a + b, false, ""});
+    OptimizerOptions o = fast_options(1);
+    o.direction = Direction::maximize;
+    o.initial_points = 6;
+    o.dead_value = 0.0;
+    Optimizer opt(specs, o, history);
+    EXPECT_TRUE(opt.live_probability({{0.25, 0.25, 0.2}}).empty());  // not fitted before an ask
+    opt.ask(1);
+    const std::vector<double> p = opt.live_probability({{0.25, 0.25, 0.2}, {0.25, 0.25, 0.95}, {0.85, 0.5, 0.5}});
+    ASSERT_EQ(p.size(), 3u);
+    EXPECT_GT(p[0], 0.95);  // inside the live cluster
+    EXPECT_LT(p[1], 0.9);   // far along x3: less sure than inside (fitted freely: 0.977 as inside)
+    EXPECT_LT(p[2], 0.1);   // among the dead
+}
+
 TEST(OptimizerTest, FindsBraninMinimum) {
     const TestFunction fn = branin();
     Optimizer opt(fn.space, fast_options(1));
