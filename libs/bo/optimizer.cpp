@@ -79,6 +79,15 @@ double log_live(const gp::PointPrediction& p, double prior, Eigen::VectorXd* gra
     return log_cdf;
 }
 
+// The dead-region classifier's GP: labels in their own units (no standardization: ±1 is the
+// scale of s0), length scales bounded (OptimizerOptions::live_max_length_scale).
+gp::GpOptions classifier_options(const OptimizerOptions& o) {
+    gp::GpOptions lo = o.gp;
+    lo.mean = gp::MeanKind::zero;
+    lo.fit.max_length_scale = o.live_max_length_scale;
+    return lo;
+}
+
 // Acquisition weighted by P(live): log-EI + log P, EI × P; UCB is left alone (not a probability
 // of improvement, a weight would change its meaning).
 void weigh_by_live(const AcquisitionContext& ctx, double log_p, double& value) {
@@ -412,11 +421,7 @@ Optimizer::Model Optimizer::build_model() {
     Eigen::VectorXd labels;
     double prior = 0.0;
     if (live_labels(labels, prior)) {
-        // Labels in their own units (no standardization: ±1 is the scale of s0).
-        gp::GpOptions lo = options_.gp;
-        lo.mean = gp::MeanKind::zero;
-        lo.fit.max_length_scale = options_.live_max_length_scale;
-        gp::GaussianProcess live(d, lo);
+        gp::GaussianProcess live(d, classifier_options(options_));
         if (live_hp_.length_scales.size() == d) live.set_hyperparameters(live_hp_);
         live.set_data(x, labels);
         if (live_fit_n_ == 0 || (refit && n >= 2)) {
@@ -734,22 +739,22 @@ std::vector<double> Optimizer::live_probability(const std::vector<std::vector<do
     double prior = 0.0;
     if (live_fit_n_ == 0 || live_hp_.length_scales.size() != space_.dim() || !live_labels(labels, prior))
         return {};
-    gp::GpOptions lo = options_.gp;
-    lo.mean = gp::MeanKind::zero;
-    gp::GaussianProcess live(space_.dim(), lo);
+    gp::GaussianProcess live(space_.dim(), classifier_options(options_));
     live.set_hyperparameters(live_hp_);
     Eigen::MatrixXd x(space_.dim(), labels.size());
     for (Eigen::Index k = 0; k < labels.size(); ++k) x.col(k) = observed_points_[static_cast<std::size_t>(k)].g;
     if (!live.set_data(x, labels)) return {};
-    std::vector<double> out;
-    for (const auto& values : points) {
-        const Eigen::VectorXd g = space_.to_model_input(space_.from_values(space_.canonical(values)));
-        Eigen::VectorXd mean, var;
-        live.predict(g, mean, var);
+    Eigen::MatrixXd g(space_.dim(), static_cast<Eigen::Index>(points.size()));
+    for (std::size_t i = 0; i < points.size(); ++i)
+        g.col(static_cast<Eigen::Index>(i)) = space_.to_model_input(space_.from_values(space_.canonical(points[i])));
+    Eigen::VectorXd mean, var;
+    live.predict(g, mean, var);
+    std::vector<double> out(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
         gp::PointPrediction p;
-        p.mean = mean(0);
-        p.variance = var(0);
-        out.push_back(std::exp(log_live(p, prior, nullptr)));
+        p.mean = mean(static_cast<Eigen::Index>(i));
+        p.variance = var(static_cast<Eigen::Index>(i));
+        out[i] = std::exp(log_live(p, prior, nullptr));
     }
     return out;
 }
