@@ -299,6 +299,14 @@ double Optimizer::warp_alpha() const {
     return options_.warping == OutputWarping::automatic ? warp_alpha_ : 0.0;
 }
 
+gp::GpOptions Optimizer::main_gp_options(std::size_t design_outputs) const {
+    gp::GpOptions o = options_.gp;
+    // The prior mean is the design's average (the objective's average over the box); the
+    // model's own proposals cluster where it is good (BENCHMARKS.md, "prior mean").
+    o.mean_points = static_cast<Eigen::Index>(std::min(design_outputs, static_cast<std::size_t>(initial_points())));
+    return o;
+}
+
 AcquisitionContext Optimizer::acquisition_context(double incumbent) const {
     AcquisitionContext ctx;
     ctx.kind = options_.acquisition;
@@ -321,7 +329,7 @@ std::vector<PosteriorPoint> Optimizer::posterior(const std::vector<std::vector<d
     Eigen::VectorXd y;
     double best = 0;
     model_data(x, y, best);
-    gp::GaussianProcess model(space_.dim(), options_.gp);
+    gp::GaussianProcess model(space_.dim(), main_gp_options(observations_.size()));
     model.set_hyperparameters(hp_);
     if (!model.set_data(x, y)) return {};
     Eigen::MatrixXd g(space_.dim(), static_cast<Eigen::Index>(points.size()));
@@ -352,7 +360,7 @@ Optimizer::Model Optimizer::build_model() {
     Eigen::VectorXd raw;
     model_data(x, y, best, &raw);
     const auto n = x.cols();
-    gp::GpOptions gp_options = options_.gp;
+    gp::GpOptions gp_options = main_gp_options(observations_.size());
     // After the first fit the previous optimum is a good start; the fixed one only costs time.
     if (last_fit_n_ > 0) gp_options.fit.fixed_start = false;
     gp::GaussianProcess model(d, gp_options);
@@ -456,7 +464,10 @@ std::optional<PredictedBest> Optimizer::predicted_best() const {
         x.col(k) = observed_points_[ok[static_cast<std::size_t>(k)]].g;
         y(k) = w.apply(internal(observations_[ok[static_cast<std::size_t>(k)]].value));
     }
-    gp::GaussianProcess model(space_.dim(), options_.gp);
+    const auto design = static_cast<std::size_t>(initial_points());
+    const auto leading = static_cast<std::size_t>(
+        std::count_if(ok.begin(), ok.end(), [&](std::size_t i) { return i < design; }));
+    gp::GaussianProcess model(space_.dim(), main_gp_options(leading));
     model.set_hyperparameters(hp_);
     if (!model.set_data(x, y)) return std::nullopt;
     Eigen::VectorXd mean, var;

@@ -221,6 +221,8 @@ class Optimizer {
     // The trust region's side length now (from the observations in order).
     double trust_region_length() const;
     AcquisitionContext acquisition_context(double incumbent) const;
+    // The main GP's options: the prior mean from the first design_outputs outputs (the design).
+    gp::GpOptions main_gp_options(std::size_t design_outputs) const;
     Eigen::VectorXd maximize_acquisition(const Model& model, std::uint64_t seed);
     bool resolve(std::uint64_t id, const Observation& observation);
 

@@ -220,6 +220,7 @@ void GaussianProcess::standardize(const Eigen::VectorXd& y) {
         const double var =
             n > 1 ? (y.array() - y_offset_).square().sum() / static_cast<double>(n - 1) : 0.0;
         y_scale_ = var > 1e-24 ? std::sqrt(var) : 1.0;
+        if (options_.mean_points > 0 && n > options_.mean_points) y_offset_ = y.head(options_.mean_points).mean();
     } else {
         y_offset_ = 0.0;
         const double ms = n > 0 ? y.squaredNorm() / static_cast<double>(n) : 0.0;

@@ -47,6 +47,11 @@ struct FitOptions {
 
 struct GpOptions {
     MeanKind mean = MeanKind::constant;
+    // MeanKind::constant: the prior mean is the average of the first mean_points outputs only
+    // (0 or fewer outputs: all). An optimizer passes its space-filling design here: the later
+    // points cluster where the objective is good, and their average would make every unexplored
+    // region look that good.
+    Eigen::Index mean_points = 0;
     CholeskyBackend backend = CholeskyBackend::eigen;
     FitOptions fit;
     // Threads inside predict (large batches only) and across the starts of fit (libs/bo also

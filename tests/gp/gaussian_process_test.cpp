@@ -96,6 +96,35 @@ TEST(GaussianProcessTest, PosteriorMatchesDenseSolve) {
     }
 }
 
+// The prior mean from the leading outputs only: far from the data the prediction returns to
+// their average, not to the average of the later ones (clustered where the objective is good).
+TEST(GaussianProcessTest, PriorMeanFromLeadingOutputs) {
+    std::mt19937_64 rng(9);
+    Eigen::MatrixXd x = uniform_points(3, 12, rng) * 0.2;  // all in a corner
+    Eigen::VectorXd y(12);
+    y.head(4).setConstant(1.0);
+    y.tail(8).setConstant(5.0);
+    y += Eigen::VectorXd::Random(12) * 0.1;
+    Hyperparameters hp = some_hyperparameters();
+    hp.length_scales.setConstant(0.1);
+    const Eigen::MatrixXd far = Eigen::Vector3d(0.95, 0.95, 0.95);
+    for (const Eigen::Index leading : {Eigen::Index{0}, Eigen::Index{4}}) {
+        GpOptions options;
+        options.mean_points = leading;
+        GaussianProcess gp(3, options);
+        gp.set_hyperparameters(hp);
+        gp.set_data(x, y);
+        Eigen::VectorXd mean, var;
+        gp.predict(far, mean, var);
+        const double expected = leading == 0 ? y.mean() : y.head(4).mean();
+        EXPECT_NEAR(mean(0), expected, 1e-6) << "mean_points " << leading;
+        // Appends standardize with the same offset.
+        gp.append(Eigen::Vector3d(0.1, 0.1, 0.1), 5.0);
+        gp.predict(far, mean, var);
+        EXPECT_NEAR(mean(0), expected, 1e-6) << "mean_points " << leading << " after append";
+    }
+}
+
 TEST(GaussianProcessTest, AppendAndTruncateMatchFreshModel) {
     std::mt19937_64 rng(8);
     const Eigen::MatrixXd x = uniform_points(3, 40, rng);
