@@ -390,10 +390,12 @@ Optimizer::Model Optimizer::build_model() {
             // themselves are most probable wins: log p(v) = log p(z) + Σ log |dz/dv|, with
             // log p(z) = −(neg. log posterior of the standardized z) − n log(scale of z).
             double best_score = -std::numeric_limits<double>::infinity();
-            // Two candidates (identity, log with c = 0.1 range) measured as good as three or four
-            // (c = 1 and 0.01 too) on the 9-D functions at a half or a third of the refit time
-            // (BENCHMARKS.md).
-            for (const double alpha : {0.0, 0.1}) {
+            // The offset c sets how far below the best the log compresses: with c = 0.1 × the
+            // range alone, a few huge values (a quartic's corners) made every good value look
+            // alike. Log-spaced c down to 0.001 range: ellipsoid9's p90 9e4 -> 139, Zakharov
+            // 207 -> 128, Dixon-Price 144 -> 15 at twice the refit time (BENCHMARKS.md,
+            // "Warping offsets").
+            for (const double alpha : {0.0, 0.1, 0.01, 0.001}) {
                 const Warp w = warp_for(alpha, raw);
                 Eigen::VectorXd z(n);
                 double log_jac = 0;

@@ -27,7 +27,8 @@ enum class OutputWarping {
     log,     // the GP models −log(best − v + c), c = 0.1 × range: values over orders of magnitude
     // At every refit (up to FitOptions::max_points observations) the warping with the highest
     // marginal likelihood of the values themselves (Jacobian included): none or −log(best −
-    // v + c) with c = 0.1 × the range of values; above max_points the last choice stays.
+    // v + c) with c = 0.1, 0.01 or 0.001 × the range of values; above max_points the last
+    // choice stays.
     automatic,
 };
 

@@ -3,8 +3,13 @@
 #include "tuning/run_directory.hpp"
 
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
+#include <algorithm>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <ctime>
 #include <mutex>
@@ -18,6 +23,14 @@ std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop.store(true); }
 
 }  // namespace
+
+void bound_malloc_arenas() {
+#ifdef __GLIBC__
+    if (std::getenv("MALLOC_ARENA_MAX") != nullptr) return;  // the user's choice stands
+    const unsigned cores = std::thread::hardware_concurrency();
+    mallopt(M_ARENA_MAX, static_cast<int>(std::max(2u, cores)));
+#endif
+}
 
 void install_stop_signals() {
     static std::once_flag once;

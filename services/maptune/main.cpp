@@ -2,8 +2,14 @@
 #include <iostream>
 
 #include "commands.hpp"
+#ifdef MAPTUNE_HAVE_SERVICES
+#include "runtime.hpp"
+#endif
 
 int main(int argc, char** argv) {
+#ifdef MAPTUNE_HAVE_SERVICES
+    maptune::services::bound_malloc_arenas();  // the matcher runs in this process too
+#endif
     CLI::App app{"maptune — Bayesian tuning of 3D map matcher parameters"};
     app.require_subcommand(1);
     app.set_version_flag("--version", "maptune 0.1.0");

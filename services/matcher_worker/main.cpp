@@ -14,6 +14,7 @@
 
 int main(int argc, char** argv) {
     using namespace maptune::services;
+    bound_malloc_arenas();
     CLI::App app{"maptune matcher_worker: evaluates parameter sets on submap pairs"};
     maptune::dds::ParticipantOptions dds{0, "", "maptune_loopback", "matcher_worker"};
     WorkerOptions options;

@@ -88,6 +88,16 @@ TEST(OptimizerTest, AutomaticWarpingPicksTheLogForValuesOverOrdersOfMagnitude) {
     EXPECT_EQ(plain.warping_in_use(), "none");
 }
 
+// A few huge values (the ellipsoid's far corners) set the range; with c = 0.1 × range every
+// good value looked alike under the log. The likelihood picks a smaller offset here.
+TEST(OptimizerTest, WarpingOffsetIsChosenBelowTheRangeWhenCornersDominateIt) {
+    const TestFunction fn = ellipsoid(9);
+    Optimizer opt(fn.space, fast_options(3));
+    run(opt, fn, 60, 1);
+    const std::string w = opt.warping_in_use();
+    EXPECT_TRUE(w == "log(c = 0.01 range)" || w == "log(c = 0.001 range)") << w;
+}
+
 // The trust region halves after max(4, d) proposals without improvement and its proposals
 // stay inside it (search: trust_region).
 TEST(OptimizerTest, TrustRegionShrinksWithoutImprovementAndHoldsItsProposals) {

@@ -1,0 +1,13 @@
+#!/bin/bash
+# maptune optimize against Optuna's CMA-ES and TPE on the functions in objective.py, one
+# compare.py run per function: bash bench/optimize/functions/run.sh [compare.py options]
+# (default --seeds 10 --budget 100). Needs Debian's python3 with python3-optuna.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+py=${PYTHON:-/usr/bin/python3}
+declare -A minimum=([rastrigin]=0 [schwefel]=0 [michalewicz]=-9.66015 [griewank]=0
+                    [dixon_price]=0 [zakharov]=0 [powell]=0)
+for f in rastrigin schwefel michalewicz griewank dixon_price zakharov powell; do
+    "$py" "$here/../compare.py" --space "$here/$f.yaml" --objective-cmd "$py $here/objective.py $f" \
+        --minimum "${minimum[$f]}" --name "$f" --seeds 10 --budget 100 "$@"
+done
