@@ -182,7 +182,7 @@ void OptimizerService::publish(const tuning::TuningRun& run, const EvaluationRec
     const auto& best = summary.evaluations[static_cast<std::size_t>(summary.best)];
     log("evaluation " + std::to_string(rec.number) + ": p=" + fmt(rec.p) + " m=" + std::to_string(rec.m) +
         (rec.from_store ? " (stored)" : "") +
-        (rec.fidelity != 1 ? " (estimate from 1/" + std::to_string(rec.fidelity) + " of the pairs: cannot beat the best)" : "") +
+        (rec.fidelity != 1 ? " (estimate from 1/" + std::to_string(rec.fidelity) + " of the pairs, below the best on the same pairs: stopped there)" : "") +
         ps + " | best so far p=" + fmt(best.p) + " (evaluation " +
         std::to_string(best.number) + ")");
 }
