@@ -13,7 +13,7 @@ namespace maptune::services {
 void install_stop_signals();
 // Caps glibc's malloc arenas at the core count (at least 2) unless MALLOC_ARENA_MAX is set.
 // glibc's default of 8 per core let freed feature-cache memory stay scattered over 16 arenas:
-// a full-moon run reached 22 GB resident for a 10 GB cache, 15 GB with 2 arenas
+// a full-moon run reached 22.3 GB resident for a 10 GB cache, 15.8 GB with 2 arenas
 // (BENCHMARKS.md, "Full moon scale"). Call first thing in main, before any thread starts.
 void bound_malloc_arenas();
 // True once a stop signal arrived or request_stop() was called.

@@ -1,10 +1,22 @@
 #!/usr/bin/env python3
 """Seven test objectives (9-D; Michalewicz 10-D, Powell 8-D) the optimizer was not developed on, for
 bench/optimize/compare.py: `objective.py NAME` reads a parameter set {"x1": …} as JSON on
-stdin and prints the value. Spaces: NAME.yaml beside this file; minima: run.sh."""
+stdin and prints the value; `objective.py --space NAME` prints its design space YAML and
+`objective.py --minimum NAME` its known minimum (run.sh uses both)."""
 import json
 import math
 import sys
+
+# name: (dimension, lower bound, upper bound, known minimum)
+FUNCTIONS = {
+    "rastrigin": (9, -5.12, 5.12, 0.0),
+    "schwefel": (9, -500.0, 500.0, 0.0),
+    "michalewicz": (10, 0.0, math.pi, -9.66015),
+    "griewank": (9, -50.0, 50.0, 0.0),
+    "dixon_price": (9, -10.0, 10.0, 0.0),
+    "zakharov": (9, -5.0, 10.0, 0.0),
+    "powell": (8, -4.0, 5.0, 0.0),
+}
 
 
 def shift(i, span):
@@ -36,11 +48,24 @@ def value(name, x):
             a, b, c, e = x[4 * k:4 * k + 4]
             v += (a + 10 * b) ** 2 + 5 * (c - e) ** 2 + (b - 2 * c) ** 4 + 10 * (a - e) ** 4
         return v
-    sys.exit(f"objective.py: unknown function '{name}'")
+    raise ValueError(f"unknown function '{name}'")
+
+
+def space_yaml(name):
+    d, low, high, _ = FUNCTIONS[name]
+    lines = [f"name: {name}", "parameters:"]
+    lines += [f"  x{i + 1}: {{type: float, low: {low!r}, high: {high!r}, default: 0, decimals: 6}}"
+              for i in range(d)]
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2:
-        sys.exit("usage: objective.py NAME < set.json")
-    p = json.loads(sys.stdin.read())
-    print(repr(value(sys.argv[1], [p[f"x{i + 1}"] for i in range(len(p))])))
+    args = sys.argv[1:]
+    if len(args) == 2 and args[0] in ("--space", "--minimum") and args[1] in FUNCTIONS:
+        print(space_yaml(args[1]) if args[0] == "--space" else FUNCTIONS[args[1]][3])
+    elif len(args) == 1 and args[0] in FUNCTIONS:
+        p = json.loads(sys.stdin.read())
+        print(repr(value(args[0], [p[f"x{i + 1}"] for i in range(len(p))])))
+    else:
+        sys.exit("usage: objective.py NAME < set.json | objective.py --space NAME | objective.py --minimum NAME"
+                 " (NAME: " + ", ".join(FUNCTIONS) + ")")

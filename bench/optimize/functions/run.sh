@@ -5,9 +5,10 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 py=${PYTHON:-/usr/bin/python3}
-declare -A minimum=([rastrigin]=0 [schwefel]=0 [michalewicz]=-9.66015 [griewank]=0
-                    [dixon_price]=0 [zakharov]=0 [powell]=0)
+spaces=$(mktemp -d)
+trap 'rm -rf "$spaces"' EXIT
 for f in rastrigin schwefel michalewicz griewank dixon_price zakharov powell; do
-    "$py" "$here/../compare.py" --space "$here/$f.yaml" --objective-cmd "$py $here/objective.py $f" \
-        --minimum "${minimum[$f]}" --name "$f" --seeds 10 --budget 100 "$@"
+    "$py" "$here/objective.py" --space "$f" > "$spaces/$f.yaml"
+    "$py" "$here/../compare.py" --space "$spaces/$f.yaml" --objective-cmd "$py $here/objective.py $f" \
+        --minimum "$("$py" "$here/objective.py" --minimum "$f")" --name "$f" --seeds 10 --budget 100 "$@"
 done
