@@ -1,10 +1,13 @@
 #include "gp/cholesky.hpp"
 #include "gp/parallel.hpp"
+#include "gp/simd_kernels.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace maptune::gp {
 
@@ -87,38 +90,165 @@ Eigen::MatrixXd EigenCholesky::solve(const Eigen::MatrixXd& b) const {
     return x;
 }
 
-void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& linv,
+namespace {
+
+// C += alpha · A · op(B) on Eigen blocks through the instruction-set-specific kernel
+// (simd_kernels.cpp); B(p, j) = b[p·step_p + j·step_j].
+template <typename C, typename A>
+void gemm(C&& c, double alpha, const A& a, const double* b, Eigen::Index step_p,
+          Eigen::Index step_j) {
+    detail::gemm_update(c.rows(), c.cols(), a.cols(), alpha, a.data(), a.outerStride(), b,
+                        step_p, step_j, c.data(), c.outerStride());
+}
+
+constexpr Eigen::Index kBlock = 128;  // blocks of the factorization and of the inverse's product
+
+}  // namespace
+
+void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& upper_inv,
                         Eigen::MatrixXd& inverse, int threads) {
-    // A⁻¹ = L⁻ᵀ L⁻¹, both factors triangular. In blocks that skip their zeros (a column block of
-    // L⁻¹ is zero above its diagonal block) this takes ~n³/3 multiply-adds instead of the ~n³
-    // of dense solves and a dense product.
+    // A⁻¹ = U Uᵀ with U = L⁻ᵀ upper triangular. In blocks that skip their zeros this takes ~n³/3
+    // multiply-adds instead of the ~n³ of dense solves and a dense product; the bulk of both
+    // steps is gemm_update (fused multiply-adds where the CPU has them).
     const Eigen::Index n = l.rows();
-    const Eigen::Index block = 32;
-    const int blocks = static_cast<int>((n + block - 1) / block);
-    linv.setZero(n, n);
-    // Column block b of L⁻¹: rows from its diagonal block down, one triangular solve.
-    parallel_for(blocks, threads, [&](int b) {
-        const Eigen::Index j0 = b * block;
-        const Eigen::Index w = std::min(block, n - j0);
-        const Eigen::Index rows = n - j0;
-        auto columns = linv.block(j0, j0, rows, w);
-        columns.topRows(w).setIdentity();
-        l.block(j0, j0, rows, rows).triangularView<Eigen::Lower>().solveInPlace(columns);
-    });
-    // Row block I of the lower triangle of A⁻¹: A⁻¹(I, 0:I+h) = L⁻¹(I:, I)ᵀ L⁻¹(I:, 0:I+h),
-    // as L⁻¹(k, i) = 0 for k < i. Blocks go to threads in an interleaved order (their work
-    // varies with I).
-    inverse.resize(n, n);
-    parallel_for(blocks, threads, [&](int b) {
-        const Eigen::Index i0 = b * block;
-        const Eigen::Index h = std::min(block, n - i0);
-        const Eigen::Index rows = n - i0;
-        inverse.block(i0, 0, h, i0 + h).noalias() =
-            linv.block(i0, i0, rows, h).transpose() * linv.block(i0, 0, rows, i0 + h);
-    });
-    for (Eigen::Index j = 1; j < n; ++j) {
-        inverse.col(j).head(j) = inverse.row(j).head(j).transpose();
+    if (n <= 2 * kBlock) {
+        // Small: Eigen's solves in blocks of 32 and products are faster than the kernel's
+        // tiles (the algorithm depends on n only, never on threads).
+        const Eigen::Index block = 32;
+        const int blocks = static_cast<int>((n + block - 1) / block);
+        upper_inv.setZero(n, n);  // holds L⁻¹ here
+        parallel_for(blocks, threads, [&](int b) {
+            const Eigen::Index j0 = b * block;
+            const Eigen::Index w = std::min(block, n - j0);
+            auto columns = upper_inv.block(j0, j0, n - j0, w);
+            columns.topRows(w).setIdentity();
+            l.block(j0, j0, n - j0, n - j0).triangularView<Eigen::Lower>().solveInPlace(columns);
+        });
+        // Row block I of the lower triangle: A⁻¹(I, 0:I+h) = L⁻¹(I:, I)ᵀ L⁻¹(I:, 0:I+h).
+        inverse.resize(n, n);
+        parallel_for(blocks, threads, [&](int b) {
+            const Eigen::Index i0 = b * block;
+            const Eigen::Index h = std::min(block, n - i0);
+            inverse.block(i0, 0, h, i0 + h).noalias() =
+                upper_inv.block(i0, i0, n - i0, h).transpose() * upper_inv.block(i0, 0, n - i0, i0 + h);
+        });
+        for (Eigen::Index j = 1; j < n; ++j) inverse.col(j).head(j) = inverse.row(j).head(j).transpose();
+        upper_inv.transposeInPlace();
+        return;
     }
+    const auto tiles = static_cast<int>((n + kBlock - 1) / kBlock);
+    auto start = [&](int b) { return static_cast<Eigen::Index>(b) * kBlock; };
+    auto width = [&](int b) { return std::min(kBlock, n - start(b)); };
+    // X = L⁻¹ by block columns C (independent): X(C, C) = L(C, C)⁻¹ and
+    // X(R, C) = −L(R, R)⁻¹ Σ_{C ≤ K < R} L(R, K) X(K, C) going down. `inverse` holds X for now.
+    // A column's work falls with C; dealt in a snake order (0 1 | 3 2 | 4 5 … for two threads)
+    // the threads get equal shares.
+    inverse.setZero(n, n);
+    const int used = std::max(1, std::min(threads, tiles));
+    std::vector<int> order(static_cast<std::size_t>(tiles));
+    for (int t = 0; t < tiles; ++t) {
+        const int round = t / used, slot = t % used;
+        const int mirrored = round * used + (used - 1 - slot);
+        order[static_cast<std::size_t>(t)] = round % 2 == 0 || mirrored >= tiles ? t : mirrored;
+    }
+    parallel_for(tiles, used, [&](int t) {
+        const int c = order[static_cast<std::size_t>(t)];
+        const Eigen::Index c0 = start(c), cw = width(c);
+        auto diag = inverse.block(c0, c0, cw, cw);
+        diag.setIdentity();
+        l.block(c0, c0, cw, cw).triangularView<Eigen::Lower>().solveInPlace(diag);
+        for (int r = c + 1; r < tiles; ++r) {
+            const Eigen::Index r0 = start(r), rw = width(r);
+            auto out = inverse.block(r0, c0, rw, cw);
+            gemm(out, -1.0, l.block(r0, c0, rw, r0 - c0), &inverse(c0, c0), 1, n);
+            l.block(r0, r0, rw, rw).triangularView<Eigen::Lower>().solveInPlace(out);
+        }
+    });
+    upper_inv.resize(n, n);
+    parallel_for(tiles, threads, [&](int c) {
+        const Eigen::Index c0 = start(c), cw = width(c);
+        upper_inv.middleCols(c0, cw) = inverse.middleRows(c0, cw).transpose();
+    });
+    // Lower blocks (R, C), R ≥ C, of A⁻¹: the sum over k from R's first row of U(R, k) U(C, k)ᵀ
+    // (U(R, k) = 0 before), each block one task, dealt round-robin (their work shrinks with R).
+    std::vector<std::pair<int, int>> targets;
+    for (int r = 0; r < tiles; ++r) {
+        for (int c = 0; c <= r; ++c) targets.emplace_back(r, c);
+    }
+    parallel_for(static_cast<int>(targets.size()), threads, [&](int t) {
+        const auto [r, c] = targets[static_cast<std::size_t>(t)];
+        const Eigen::Index r0 = r * kBlock, c0 = c * kBlock;
+        const Eigen::Index h = std::min(kBlock, n - r0), w = std::min(kBlock, n - c0);
+        auto out = inverse.block(r0, c0, h, w);
+        out.setZero();
+        gemm(out, 1.0, upper_inv.block(r0, r0, h, n - r0), &upper_inv(c0, r0), n, 1);
+    });
+    // The upper triangle by symmetry, one block column per task.
+    parallel_for(tiles, threads, [&](int c) {
+        const Eigen::Index c0 = start(c), cw = width(c);
+        for (int r = 0; r < c; ++r) {
+            inverse.block(start(r), c0, width(r), cw) =
+                inverse.block(c0, start(r), cw, width(r)).transpose();
+        }
+        for (Eigen::Index j = 1; j < cw; ++j) {
+            inverse.col(c0 + j).segment(c0, j) = inverse.row(c0 + j).segment(c0, j).transpose();
+        }
+    });
+}
+
+bool factorize_lower(Eigen::Ref<Eigen::MatrixXd> a, int threads) {
+    const Eigen::Index n = a.rows();
+    // The algorithm depends on n only (never on threads), so every thread count gives the same
+    // bits; below two blocks Eigen's own is as fast.
+    if (n <= 2 * kBlock) {
+        Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(a);
+        return llt.info() == Eigen::Success;
+    }
+    const auto blocks = static_cast<int>((n + kBlock - 1) / kBlock);
+    auto start = [&](int b) { return static_cast<Eigen::Index>(b) * kBlock; };
+    auto width = [&](int b) { return std::min(kBlock, n - start(b)); };
+    const Eigen::Index ld = a.outerStride();
+    for (int k = 0; k < blocks; ++k) {
+        const Eigen::Index k0 = start(k);
+        const Eigen::Index kw = width(k);
+        auto diag = a.block(k0, k0, kw, kw);
+        Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diag);
+        if (llt.info() != Eigen::Success) return false;
+        const int below = blocks - k - 1;
+        if (below == 0) break;
+        // Panel: A(i, k) ← A(i, k) L(k, k)⁻ᵀ, one row block per task.
+        parallel_for(below, threads, [&](int t) {
+            const int i = k + 1 + t;
+            auto panel = a.block(start(i), k0, width(i), kw);
+            a.block(k0, k0, kw, kw)
+                .triangularView<Eigen::Lower>()
+                .transpose()
+                .solveInPlace<Eigen::OnTheRight>(panel);
+        });
+        // Trailing update of the lower triangle: A(i, j) −= A(i, k) A(j, k)ᵀ for k < j ≤ i,
+        // dealt round-robin (rows differ in length). A diagonal block goes in column strips
+        // from the diagonal down (the strict upper triangle is scratch).
+        std::vector<std::pair<int, int>> targets;
+        for (int i = k + 1; i < blocks; ++i) {
+            for (int j = k + 1; j <= i; ++j) targets.emplace_back(i, j);
+        }
+        parallel_for(static_cast<int>(targets.size()), threads, [&](int t) {
+            const auto [i, j] = targets[static_cast<std::size_t>(t)];
+            const Eigen::Index i0 = start(i), j0 = start(j);
+            if (i != j) {
+                gemm(a.block(i0, j0, width(i), width(j)), -1.0, a.block(i0, k0, width(i), kw),
+                     &a(j0, k0), ld, 1);
+                return;
+            }
+            constexpr Eigen::Index kStrip = 32;
+            for (Eigen::Index s = 0; s < width(i); s += kStrip) {
+                const Eigen::Index sw = std::min(kStrip, width(i) - s);
+                gemm(a.block(i0 + s, i0 + s, width(i) - s, sw), -1.0,
+                     a.block(i0 + s, k0, width(i) - s, kw), &a(i0 + s, k0), ld, 1);
+            }
+        });
+    }
+    return true;
 }
 
 Eigen::MatrixXd EigenCholesky::inverse() const {

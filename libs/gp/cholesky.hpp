@@ -48,12 +48,20 @@ class Cholesky {
 std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend);
 
 // A⁻¹ from the lower Cholesky factor L of A (only its lower triangle is read), in n³/3
-// multiply-adds; linv receives L⁻¹. Both outputs are resized; reusing them across calls
+// multiply-adds; upper_inv receives L⁻ᵀ. Both outputs are resized; reusing them across calls
 // avoids the allocations. `threads` (gp::resolve_threads units, 1 = the caller only) split
-// the column blocks of L⁻¹ and the row blocks of A⁻¹; each block is written by one task, so
+// the column blocks of L⁻ᵀ and the blocks of A⁻¹; each block is written by one task, so
 // the result does not depend on the thread count.
-void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& linv,
+void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& upper_inv,
                         Eigen::MatrixXd& inverse, int threads = 1);
+
+// In-place lower Cholesky factor of the symmetric positive definite a (only its lower triangle
+// is read; L overwrites it, the strict upper triangle is scratch). False if a is not
+// positive definite. Above n = 256 right-looking in blocks of 128 (below, Eigen's LLT): the panel solves and the trailing
+// update's blocks are split across `threads`, each block written by one task in a fixed
+// order, so the factor does not depend on the thread count (Eigen's LLT runs on one core:
+// at n = 1000 the factorization is a third of a hyperparameter-fit evaluation).
+bool factorize_lower(Eigen::Ref<Eigen::MatrixXd> a, int threads = 1);
 
 class EigenCholesky final : public Cholesky {
   public:

@@ -10,6 +10,7 @@
 #include <optional>
 #include <random>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "gp/parallel.hpp"
@@ -77,30 +78,43 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
 
     const Eigen::ArrayXd inv_l = hp.length_scales.array().inverse();
     ws.z = (x.array().colwise() * inv_l).matrix();  // scaled inputs d×n
+    // The O(n²) work in slabs of kSlab columns, one task each: every element and every partial
+    // sum is computed the same way for any thread count (the slabs depend on n only).
+    constexpr Eigen::Index kSlab = 128;
+    const auto slabs = static_cast<int>((n + kSlab - 1) / kSlab);
+    const int threads = ws.threads;
+    auto slab = [&](int b) { return std::make_pair(b * kSlab, std::min(kSlab, n - b * kSlab)); };
     // Squared distances |a|² + |b|² − 2a·b, as scaled_sq_dist.
     const Eigen::RowVectorXd sq = ws.z.colwise().squaredNorm();
-    ws.r2.noalias() = -2.0 * (ws.z.transpose() * ws.z);
-    ws.r2.colwise() += sq.transpose();
-    ws.r2.rowwise() += sq;
-    ws.r2 = ws.r2.cwiseMax(0.0);
-    ws.r2.diagonal().setZero();
-    // kf = K without noise; q = s² (5/3)(1 + √5 r) e^{−√5 r} for the length-scale gradient.
+    ws.r2.resize(n, n);
     ws.kf.resize(n, n);
     ws.q.resize(n, n);
-    detail::matern52_from_sq_dist(ws.r2.data(), ws.r2.size(), hp.signal_variance, ws.kf.data(),
-                                  grad != nullptr ? ws.q.data() : nullptr);
-    ws.k = ws.kf;
-    ws.k.diagonal().array() += hp.noise_variance;
+    ws.k.resize(n, n);
+    // kf = K without noise; q = s² (5/3)(1 + √5 r) e^{−√5 r} for the length-scale gradient.
+    parallel_for(slabs, threads, [&](int b) {
+        const auto [c0, w] = slab(b);
+        auto r2 = ws.r2.middleCols(c0, w);
+        r2.noalias() = -2.0 * (ws.z.transpose() * ws.z.middleCols(c0, w));
+        r2.colwise() += sq.transpose();
+        r2.rowwise() += sq.segment(c0, w);
+        r2 = r2.cwiseMax(0.0);
+        for (Eigen::Index j = 0; j < w; ++j) r2(c0 + j, j) = 0.0;
+        detail::matern52_from_sq_dist(r2.data(), n * w, hp.signal_variance,
+                                      ws.kf.middleCols(c0, w).data(),
+                                      grad != nullptr ? ws.q.middleCols(c0, w).data() : nullptr);
+        ws.k.middleCols(c0, w) = ws.kf.middleCols(c0, w);
+        for (Eigen::Index j = 0; j < w; ++j) ws.k(c0 + j, c0 + j) += hp.noise_variance;
+    });
 
     double log_det = 0.0;
     Eigen::VectorXd alpha;
     std::unique_ptr<Cholesky> chol;
     if (backend == CholeskyBackend::eigen) {
         // In place: L overwrites the lower triangle of ws.k.
-        Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(ws.k);
-        if (llt.info() != Eigen::Success) return 1e25;  // a wall the line search backs away from
+        if (!factorize_lower(ws.k, threads)) return 1e25;  // a wall the line search backs away from
         log_det = 2.0 * ws.k.diagonal().array().log().sum();
-        alpha = llt.solve(y);
+        alpha = ws.k.triangularView<Eigen::Lower>().solve(y);
+        ws.k.triangularView<Eigen::Lower>().transpose().solveInPlace(alpha);
     } else {
         chol = make_cholesky(backend);
         if (!chol->compute(ws.k)) return 1e25;
@@ -114,20 +128,30 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
         if (chol) {
             ws.w = chol->inverse();
         } else {
-            inverse_from_lower(ws.k, ws.linv, ws.w, ws.threads);
+            inverse_from_lower(ws.k, ws.linv, ws.w, threads);
         }
-        ws.w *= -1.0;
-        ws.w.noalias() += alpha * alpha.transpose();
-        (*grad)(dim) = -0.5 * (ws.w.array() * ws.kf.array()).sum();  // dK/dlog s² = kf
-        (*grad)(dim + 1) = -0.5 * hp.noise_variance * ws.w.trace();
-        // Length scales: dK/dlog l_j = Q ∘ D_j with D_j = (z_j,a − z_j,b)²; the sum over D_j
-        // reduces to one n×n×d product with M = W ∘ Q.
-        ws.q.array() *= ws.w.array();
-        const Eigen::VectorXd row_sums = ws.q.rowwise().sum();
-        const Eigen::MatrixXd mz = ws.q * ws.z.transpose();  // n×d
+        // Per slab: W, Σ W∘kf (dK/dlog s² = kf), tr W, and for the length scales
+        // dK/dlog l_j = Q ∘ D_j with D_j = (z_j,a − z_j,b)²: the sum over D_j reduces to the
+        // column sums of M = W ∘ Q and the product z M (M is symmetric).
+        Eigen::VectorXd signal_part(slabs), trace_part(slabs), col_sums(n);
+        Eigen::MatrixXd zm(dim, n);
+        parallel_for(slabs, threads, [&](int b) {
+            const auto [c0, w] = slab(b);
+            auto wb = ws.w.middleCols(c0, w);
+            wb *= -1.0;
+            wb.noalias() += alpha * alpha.segment(c0, w).transpose();
+            signal_part(b) = (wb.array() * ws.kf.middleCols(c0, w).array()).sum();
+            trace_part(b) = wb.middleRows(c0, w).trace();
+            auto mb = ws.q.middleCols(c0, w);
+            mb.array() *= wb.array();
+            col_sums.segment(c0, w) = mb.colwise().sum().transpose();
+            zm.middleCols(c0, w).noalias() = ws.z * mb;
+        });
+        (*grad)(dim) = -0.5 * signal_part.sum();
+        (*grad)(dim + 1) = -0.5 * hp.noise_variance * trace_part.sum();
         for (int j = 0; j < dim; ++j) {
             const double g =
-                ws.z.row(j).array().square().matrix().dot(row_sums) - ws.z.row(j).dot(mz.col(j));
+                ws.z.row(j).array().square().matrix().dot(col_sums) - ws.z.row(j).dot(zm.row(j));
             (*grad)(j) = -g;  // ½ · 2 from the symmetric expansion
         }
     }

@@ -154,7 +154,78 @@ void solve_rows(const double* lb, Index i0, const double* inv_diag, double* y, d
     for (int v = 0; v < kVecs; ++v) store(ss + v * kLanes, s[v]);
 }
 
+// acc + x·y, fused where the instruction set has it (the ISO C++ build does not contract).
+Vec fma_v(Vec x, Vec y, Vec acc) {
+#if defined(__AVX512F__)
+    return _mm512_fmadd_pd(x, y, acc);
+#elif defined(__FMA__)
+    return _mm256_fmadd_pd(x, y, acc);
+#else
+    return acc + x * y;
+#endif
+}
+
+// One register tile of gemm_update: V vectors of rows × NR columns.
+template <int V, int NR>
+void gemm_tile(Index k, double alpha, const double* a, Index lda, const double* b, Index sp,
+               Index sj, double* c, Index ldc) {
+    Vec acc[V][NR] = {};
+    for (Index p = 0; p < k; ++p) {
+        Vec av[V];
+        for (int v = 0; v < V; ++v) av[v] = load(a + p * lda + v * kLanes);
+        const double* bp = b + p * sp;
+        for (int j = 0; j < NR; ++j) {
+            const Vec bj = splat(bp[j * sj]);
+            for (int v = 0; v < V; ++v) acc[v][j] = fma_v(av[v], bj, acc[v][j]);
+        }
+    }
+    for (int j = 0; j < NR; ++j) {
+        for (int v = 0; v < V; ++v) {
+            double* cj = c + j * ldc + v * kLanes;
+            store(cj, fma_v(splat(alpha), acc[v][j], load(cj)));
+        }
+    }
+}
+
+// The columns j0 .. j0 + NR − 1 of C for rows [0, m): full tiles, then one vector, then scalars.
+template <int NR>
+void gemm_columns(Index m, Index k, double alpha, const double* a, Index lda, const double* b,
+                  Index sp, Index sj, double* c, Index ldc) {
+    Index i = 0;
+    for (; i + 2 * kLanes <= m; i += 2 * kLanes) gemm_tile<2, NR>(k, alpha, a + i, lda, b, sp, sj, c + i, ldc);
+    for (; i + kLanes <= m; i += kLanes) gemm_tile<1, NR>(k, alpha, a + i, lda, b, sp, sj, c + i, ldc);
+    for (; i < m; ++i) {
+        for (int j = 0; j < NR; ++j) {
+            double acc = 0.0;
+            for (Index p = 0; p < k; ++p) acc += a[i + p * lda] * b[p * sp + j * sj];
+            c[i + j * ldc] += alpha * acc;
+        }
+    }
+}
+
 }  // namespace
+
+void gemm_update(Index m, Index n, Index k, double alpha, const double* a, Index lda,
+                 const double* b, Index b_step_p, Index b_step_j, double* c, Index ldc) {
+    constexpr int kCols = 6;
+    // Chunks of the inner dimension: A's m × kDepth slice (≤ 256 KB at m = 128) stays in L2
+    // while every column tile passes over it, instead of streaming all of A per tile.
+    constexpr Index kDepth = 256;
+    for (Index p0 = 0; p0 < k; p0 += kDepth) {
+        const Index kc = min_index(kDepth, k - p0);
+        const double* ap = a + p0 * lda;
+        const double* bp = b + p0 * b_step_p;
+        Index j = 0;
+        for (; j + kCols <= n; j += kCols) {
+            gemm_columns<kCols>(m, kc, alpha, ap, lda, bp + j * b_step_j, b_step_p, b_step_j,
+                                c + j * ldc, ldc);
+        }
+        for (; j < n; ++j) {
+            gemm_columns<1>(m, kc, alpha, ap, lda, bp + j * b_step_j, b_step_p, b_step_j,
+                            c + j * ldc, ldc);
+        }
+    }
+}
 
 void matern52_from_sq_dist(const double* r2, Index count, double signal_variance, double* k,
                            double* q) {

@@ -48,4 +48,12 @@ Index work_size(Index n, int dim, Index strips);
 void predict_range(const PredictProblem& p, const double* zs, Index first, Index count,
                    Index strips, double* work, double* mean, double* variance);
 
+// C += alpha · A · B for column-major A (m×k, leading dimension lda) and C (m×n, ldc), where
+// B(p, j) = b[p·b_step_p + j·b_step_j] (so B can be a transpose without a copy). The dense
+// core of the blocked Cholesky factorization and inverse (cholesky.cpp); register tiles of
+// 2 vectors × 6 columns with fused multiply-adds where the instruction set has them. The
+// result depends on the operands only (fixed summation order over p).
+void gemm_update(Index m, Index n, Index k, double alpha, const double* a, Index lda,
+                 const double* b, Index b_step_p, Index b_step_j, double* c, Index ldc);
+
 }  // namespace maptune::gp::detail

@@ -70,6 +70,43 @@ TEST_P(CholeskyTest, RejectsIndefiniteAppend) {
     EXPECT_EQ(chol->size(), 3);
 }
 
+// The blocked factorization and inverse (sizes off the block grid, odd remainders for the
+// kernel's row and column tails) against Eigen's LLT and LU, and the same bits for every
+// thread count.
+TEST(BlockedCholeskyTest, FactorAndInverseMatchEigenForEveryThreadCount) {
+    for (const Eigen::Index n : {37, 300, 517}) {
+        const Eigen::MatrixXd a = random_spd(n, 10 + static_cast<std::uint64_t>(n));
+        const Eigen::MatrixXd oracle_l = Eigen::LLT<Eigen::MatrixXd>(a).matrixL();
+        const Eigen::MatrixXd oracle_inv = a.inverse();
+        Eigen::MatrixXd first_l, first_inv;
+        for (const int threads : {1, 2, 3}) {
+            Eigen::MatrixXd f = a;
+            ASSERT_TRUE(factorize_lower(f, threads)) << n;
+            const Eigen::MatrixXd l = f.triangularView<Eigen::Lower>();
+            EXPECT_LT((l - oracle_l).norm(), 1e-10 * oracle_l.norm()) << n << " " << threads;
+            Eigen::MatrixXd work, inv;
+            inverse_from_lower(l, work, inv, threads);
+            EXPECT_LT((inv - oracle_inv).norm(), 1e-10 * oracle_inv.norm()) << n << " " << threads;
+            EXPECT_EQ(inv, inv.transpose());
+            if (threads == 1) {
+                first_l = l;
+                first_inv = inv;
+            } else {
+                EXPECT_EQ(l, first_l) << n << " " << threads;
+                EXPECT_EQ(inv, first_inv) << n << " " << threads;
+            }
+        }
+    }
+}
+
+TEST(BlockedCholeskyTest, RejectsIndefiniteMatrix) {
+    for (const Eigen::Index n : {10, 400}) {
+        Eigen::MatrixXd a = random_spd(n, 5);
+        a(n - 3, n - 3) = -1.0;  // breaks positive definiteness in the last block
+        EXPECT_FALSE(factorize_lower(a, 2)) << n;
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, CholeskyTest,
                          ::testing::Values(CholeskyBackend::eigen, CholeskyBackend::cholmod),
                          [](const auto& tpi) { return to_string(tpi.param); });
