@@ -108,42 +108,25 @@ constexpr Eigen::Index kBlock = 128;  // blocks of the factorization and of the 
 void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& upper_inv,
                         Eigen::MatrixXd& inverse, int threads) {
     // A⁻¹ = U Uᵀ with U = L⁻ᵀ upper triangular. In blocks that skip their zeros this takes ~n³/3
-    // multiply-adds instead of the ~n³ of dense solves and a dense product; the bulk of both
-    // steps is gemm_update (fused multiply-adds where the CPU has them).
+    // multiply-adds instead of the ~n³ of dense solves and a dense product; nearly all of it is
+    // gemm_update (fused multiply-adds where the CPU has them: ~2× Eigen's SSE2 products and
+    // ~4× its triangular solves here, BENCHMARKS.md). The block size depends on n only, never
+    // on threads.
     const Eigen::Index n = l.rows();
-    if (n <= 2 * kBlock) {
-        // Small: Eigen's solves in blocks of 32 and products are faster than the kernel's
-        // tiles (the algorithm depends on n only, never on threads).
-        const Eigen::Index block = 32;
-        const int blocks = static_cast<int>((n + block - 1) / block);
-        upper_inv.setZero(n, n);  // holds L⁻¹ here
-        parallel_for(blocks, threads, [&](int b) {
-            const Eigen::Index j0 = b * block;
-            const Eigen::Index w = std::min(block, n - j0);
-            auto columns = upper_inv.block(j0, j0, n - j0, w);
-            columns.topRows(w).setIdentity();
-            l.block(j0, j0, n - j0, n - j0).triangularView<Eigen::Lower>().solveInPlace(columns);
-        });
-        // Row block I of the lower triangle: A⁻¹(I, 0:I+h) = L⁻¹(I:, I)ᵀ L⁻¹(I:, 0:I+h).
-        inverse.resize(n, n);
-        parallel_for(blocks, threads, [&](int b) {
-            const Eigen::Index i0 = b * block;
-            const Eigen::Index h = std::min(block, n - i0);
-            inverse.block(i0, 0, h, i0 + h).noalias() =
-                upper_inv.block(i0, i0, n - i0, h).transpose() * upper_inv.block(i0, 0, n - i0, i0 + h);
-        });
-        for (Eigen::Index j = 1; j < n; ++j) inverse.col(j).head(j) = inverse.row(j).head(j).transpose();
-        upper_inv.transposeInPlace();
-        return;
-    }
-    const auto tiles = static_cast<int>((n + kBlock - 1) / kBlock);
-    auto start = [&](int b) { return static_cast<Eigen::Index>(b) * kBlock; };
-    auto width = [&](int b) { return std::min(kBlock, n - start(b)); };
-    // X = L⁻¹ by block columns C (independent): X(C, C) = L(C, C)⁻¹ and
-    // X(R, C) = −L(R, R)⁻¹ Σ_{C ≤ K < R} L(R, K) X(K, C) going down. `inverse` holds X for now.
-    // A column's work falls with C; dealt in a snake order (0 1 | 3 2 | 4 5 … for two threads)
-    // the threads get equal shares.
+    const Eigen::Index block = n <= 2 * kBlock ? 32 : kBlock;
+    const auto tiles = static_cast<int>((n + block - 1) / block);
+    auto start = [&](int b) { return static_cast<Eigen::Index>(b) * block; };
+    auto width = [&](int b) { return std::min(block, n - start(b)); };
+    // X = L⁻¹, held in `inverse` for now. Its diagonal blocks X(R, R) = L(R, R)⁻¹ first; then
+    // by block columns C (independent): X(R, C) = −X(R, R) Σ_{C ≤ K < R} L(R, K) X(K, C) going
+    // down. A column's work falls with C; dealt in a snake order (0 1 | 3 2 | 4 5 … for two
+    // threads) the threads get equal shares.
     inverse.setZero(n, n);
+    parallel_for(tiles, threads, [&](int r) {
+        auto diag = inverse.block(start(r), start(r), width(r), width(r));
+        diag.setIdentity();
+        l.block(start(r), start(r), width(r), width(r)).triangularView<Eigen::Lower>().solveInPlace(diag);
+    });
     const int used = std::max(1, std::min(threads, tiles));
     std::vector<int> order(static_cast<std::size_t>(tiles));
     for (int t = 0; t < tiles; ++t) {
@@ -154,20 +137,19 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
     parallel_for(tiles, used, [&](int t) {
         const int c = order[static_cast<std::size_t>(t)];
         const Eigen::Index c0 = start(c), cw = width(c);
-        auto diag = inverse.block(c0, c0, cw, cw);
-        diag.setIdentity();
-        l.block(c0, c0, cw, cw).triangularView<Eigen::Lower>().solveInPlace(diag);
+        Eigen::MatrixXd sum(block, cw);
         for (int r = c + 1; r < tiles; ++r) {
             const Eigen::Index r0 = start(r), rw = width(r);
+            auto partial = sum.topRows(rw);
+            partial.setZero();
+            gemm(partial, -1.0, l.block(r0, c0, rw, r0 - c0), &inverse(c0, c0), 1, n);
             auto out = inverse.block(r0, c0, rw, cw);
-            gemm(out, -1.0, l.block(r0, c0, rw, r0 - c0), &inverse(c0, c0), 1, n);
-            l.block(r0, r0, rw, rw).triangularView<Eigen::Lower>().solveInPlace(out);
+            gemm(out, 1.0, inverse.block(r0, r0, rw, rw), partial.data(), 1, partial.outerStride());
         }
     });
     upper_inv.resize(n, n);
     parallel_for(tiles, threads, [&](int c) {
-        const Eigen::Index c0 = start(c), cw = width(c);
-        upper_inv.middleCols(c0, cw) = inverse.middleRows(c0, cw).transpose();
+        upper_inv.middleCols(start(c), width(c)) = inverse.middleRows(start(c), width(c)).transpose();
     });
     // Lower blocks (R, C), R ≥ C, of A⁻¹: the sum over k from R's first row of U(R, k) U(C, k)ᵀ
     // (U(R, k) = 0 before), each block one task, dealt round-robin (their work shrinks with R).
@@ -177,11 +159,10 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
     }
     parallel_for(static_cast<int>(targets.size()), threads, [&](int t) {
         const auto [r, c] = targets[static_cast<std::size_t>(t)];
-        const Eigen::Index r0 = r * kBlock, c0 = c * kBlock;
-        const Eigen::Index h = std::min(kBlock, n - r0), w = std::min(kBlock, n - c0);
-        auto out = inverse.block(r0, c0, h, w);
+        const Eigen::Index r0 = start(r), c0 = start(c);
+        auto out = inverse.block(r0, c0, width(r), width(c));
         out.setZero();
-        gemm(out, 1.0, upper_inv.block(r0, r0, h, n - r0), &upper_inv(c0, r0), n, 1);
+        gemm(out, 1.0, upper_inv.block(r0, r0, width(r), n - r0), &upper_inv(c0, r0), n, 1);
     });
     // The upper triangle by symmetry, one block column per task.
     parallel_for(tiles, threads, [&](int c) {
