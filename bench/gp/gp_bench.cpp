@@ -99,6 +99,25 @@ void BM_Fit(benchmark::State& state) {
     }
 }
 
+// The blocked factorization and K⁻¹ of the fit's objective; range(1) = threads (real time).
+void BM_FactorizeLower(benchmark::State& state) {
+    const Eigen::MatrixXd k = covariance(state.range(0));
+    Eigen::MatrixXd f;
+    for (auto _ : state) {
+        f = k;
+        benchmark::DoNotOptimize(maptune::gp::factorize_lower(f, static_cast<int>(state.range(1))));
+    }
+}
+
+void BM_InverseFromLower(benchmark::State& state) {
+    Eigen::MatrixXd l = covariance(state.range(0));
+    maptune::gp::factorize_lower(l);
+    Eigen::MatrixXd work, inverse;
+    for (auto _ : state) {
+        maptune::gp::inverse_from_lower(l, work, inverse, static_cast<int>(state.range(1)));
+    }
+}
+
 // Mean and variance at 10 000 points; range(1) = GpOptions::threads. Wall time matters here
 // (the benchmark uses real time), CPU time is reported for the calling thread only.
 void BM_Predict10000(benchmark::State& state) {
@@ -155,6 +174,14 @@ BENCHMARK_CAPTURE(BM_SolveLower1024, cholmod, CholeskyBackend::cholmod)
     ->Arg(300)
     ->Arg(1000)
     ->Arg(3000)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FactorizeLower)
+    ->ArgsProduct({{100, 1000, 2000}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InverseFromLower)
+    ->ArgsProduct({{100, 1000, 2000}, {1, 2}})
+    ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Inverse)->Arg(100)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NegLogPosterior)->Arg(100)->Arg(200)->Unit(benchmark::kMillisecond);

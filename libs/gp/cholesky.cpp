@@ -55,11 +55,12 @@ void EigenCholesky::reserve(Eigen::Index n) {
 
 bool EigenCholesky::compute(const Eigen::MatrixXd& a) {
     n_ = 0;
-    Eigen::LLT<Eigen::MatrixXd> llt(a);
-    if (llt.info() != Eigen::Success) return false;
     reserve(a.rows());
+    auto l = l_.topLeftCorner(a.rows(), a.rows());
+    l = a;
+    if (!factorize_lower(l)) return false;
+    l.triangularView<Eigen::StrictlyUpper>().setZero();
     n_ = a.rows();
-    l_.topLeftCorner(n_, n_) = llt.matrixL();
     return true;
 }
 
@@ -114,6 +115,8 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
     // on threads.
     const Eigen::Index n = l.rows();
     const Eigen::Index block = n <= 2 * kBlock ? 32 : kBlock;
+    // Up to n = 256 starting threads costs more than the work (0.36 vs 0.09 ms at n = 100).
+    if (n <= 2 * kBlock) threads = 1;
     const auto tiles = static_cast<int>((n + block - 1) / block);
     auto start = [&](int b) { return static_cast<Eigen::Index>(b) * block; };
     auto width = [&](int b) { return std::min(block, n - start(b)); };
