@@ -104,6 +104,14 @@ void gemm(C&& c, double alpha, const A& a, const double* b, Eigen::Index step_p,
 
 constexpr Eigen::Index kBlock = 128;  // blocks of the factorization and of the inverse's product
 
+// Square blocks of `size` covering [0, n); the last one may be narrower.
+struct Tiles {
+    Eigen::Index n, size;
+    int count() const { return static_cast<int>((n + size - 1) / size); }
+    Eigen::Index start(int b) const { return static_cast<Eigen::Index>(b) * size; }
+    Eigen::Index width(int b) const { return std::min(size, n - start(b)); }
+};
+
 }  // namespace
 
 void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& upper_inv,
@@ -114,12 +122,12 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
     // ~4× its triangular solves here, BENCHMARKS.md). The block size depends on n only, never
     // on threads.
     const Eigen::Index n = l.rows();
-    const Eigen::Index block = n <= 2 * kBlock ? 32 : kBlock;
-    // Up to n = 256 starting threads costs more than the work (0.36 vs 0.09 ms at n = 100).
-    if (n <= 2 * kBlock) threads = 1;
-    const auto tiles = static_cast<int>((n + block - 1) / block);
-    auto start = [&](int b) { return static_cast<Eigen::Index>(b) * block; };
-    auto width = [&](int b) { return std::min(block, n - start(b)); };
+    const Eigen::Index block = n <= kSmallDense ? 32 : kBlock;
+    if (n <= kSmallDense) threads = 1;
+    const Tiles grid{n, block};
+    const int tiles = grid.count();
+    auto start = [&](int b) { return grid.start(b); };
+    auto width = [&](int b) { return grid.width(b); };
     // X = L⁻¹, held in `inverse` for now. Its diagonal blocks X(R, R) = L(R, R)⁻¹ first; then
     // by block columns C (independent): X(R, C) = −X(R, R) Σ_{C ≤ K < R} L(R, K) X(K, C) going
     // down. A column's work falls with C; dealt in a snake order (0 1 | 3 2 | 4 5 … for two
@@ -183,14 +191,15 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
 bool factorize_lower(Eigen::Ref<Eigen::MatrixXd> a, int threads) {
     const Eigen::Index n = a.rows();
     // The algorithm depends on n only (never on threads), so every thread count gives the same
-    // bits; below two blocks Eigen's own is as fast.
-    if (n <= 2 * kBlock) {
+    // bits; up to two blocks Eigen's own is as fast.
+    if (n <= kSmallDense) {
         Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(a);
         return llt.info() == Eigen::Success;
     }
-    const auto blocks = static_cast<int>((n + kBlock - 1) / kBlock);
-    auto start = [&](int b) { return static_cast<Eigen::Index>(b) * kBlock; };
-    auto width = [&](int b) { return std::min(kBlock, n - start(b)); };
+    const Tiles grid{n, kBlock};
+    const int blocks = grid.count();
+    auto start = [&](int b) { return grid.start(b); };
+    auto width = [&](int b) { return grid.width(b); };
     const Eigen::Index ld = a.outerStride();
     for (int k = 0; k < blocks; ++k) {
         const Eigen::Index k0 = start(k);

@@ -82,7 +82,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
     // sum is computed the same way for any thread count (the slabs depend on n only).
     constexpr Eigen::Index kSlab = 128;
     const auto slabs = static_cast<int>((n + kSlab - 1) / kSlab);
-    const int threads = n <= 256 ? 1 : ws.threads;  // small: starting threads costs more
+    const int threads = n <= kSmallDense ? 1 : ws.threads;
     auto slab = [&](int b) { return std::make_pair(b * kSlab, std::min(kSlab, n - b * kSlab)); };
     // Squared distances |a|² + |b|² − 2a·b, as scaled_sq_dist.
     const Eigen::RowVectorXd sq = ws.z.colwise().squaredNorm();
