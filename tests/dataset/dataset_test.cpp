@@ -208,6 +208,35 @@ TEST(SimulatorTest, AppearanceAndRockShapeSettings) {
     EXPECT_EQ(set_sim_option(c, "rock_facets", "2.5").find("integer") != std::string::npos, true);
 }
 
+// The lab preset's hall: with the free wander, run 2 of seed 12 turned on the spot between
+// rocks for all 15 submaps (origins within 0.3 m); path_unstick lets it squeeze out. The path
+// does not depend on the sensor, so a coarse camera keeps the test fast.
+TEST(SimulatorTest, ARoverBoxedInBetweenRocksSqueezesOut) {
+    auto run2_extent = [](int unstick, const std::string& name) {
+        SimConfig c = sim_preset("lab");
+        c.seed = 12;
+        c.runs = 3;
+        c.image_width = 24;
+        c.image_height = 18;
+        c.voxel_m = 0.15;
+        c.octomap_resolution_m = 0.3;
+        c.path_unstick = unstick;
+        c.threads = 2;
+        generate_dataset(c, temp_root() / name);
+        const Dataset d = Dataset::open(temp_root() / name);
+        double lo_x = 1e9, hi_x = -1e9, lo_y = 1e9, hi_y = -1e9;
+        for (const StampedPose& p : d.manifest().runs.at(2).gt) {
+            lo_x = std::min(lo_x, p.T.translation().x());
+            hi_x = std::max(hi_x, p.T.translation().x());
+            lo_y = std::min(lo_y, p.T.translation().y());
+            hi_y = std::max(hi_y, p.T.translation().y());
+        }
+        return std::max(hi_x - lo_x, hi_y - lo_y);
+    };
+    EXPECT_LT(run2_extent(0, "boxed_in"), 0.5);
+    EXPECT_GT(run2_extent(1, "squeezed_out"), 2.0);
+}
+
 TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {
     const fs::path out = temp_root() / "fail";
     {
