@@ -24,7 +24,7 @@ mkdir -p "$out"
 if [ $mode = quick ]; then
   dir=configs/experiments/quick
   experiments=(lab_2d_tK_rD lab_ssgt lab_ssi moon_ssgt moon_ssi)
-  lab_heldout=datasets/quick_lab_heldout
+  lab_heldout=datasets/quick_lab_heldout_4x15
   moon_heldout=datasets/quick_moon_heldout
 else
   dir=configs/experiments
