@@ -112,7 +112,6 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"exposure_sigma", r(c.exposure_sigma, 0, 1)},
         {"frame_step_m", r(c.frame_step_m, 0.01, 10)},
         {"path_wander", r(c.path_wander, 0, 10)},
-        {"path_goal_m", r(c.path_goal_m, 0, 1000)},
         {"path_unstick", i(c.path_unstick, 0, 1)},
         {"submap_distance_m", r(c.submap_distance_m, 0.05, 1000)},
         {"submap_sigma_m", r(c.submap_sigma_m, 0.001, 100)},
@@ -667,11 +666,9 @@ struct Pose2 {
 
 class PathPlanner {
 public:
-    // goal_m > 0: a traverse between waypoints at least goal_m apart (drawn from goal_rng), as
-    // an operator drives the rover across the hall when recording a run; 0: a free wander.
     // unstick: after a full turn on the spot the rover squeezes out (below).
-    PathPlanner(const World& w, Rng& rng, double margin, double wander, double goal_m, Rng* goal_rng, bool unstick)
-        : w_(w), rng_(rng), margin_(margin), wander_(wander), goal_m_(goal_m), goal_rng_(goal_rng), unstick_(unstick) {}
+    PathPlanner(const World& w, Rng& rng, double margin, double wander, bool unstick)
+        : w_(w), rng_(rng), margin_(margin), wander_(wander), unstick_(unstick) {}
 
     Pose2 start() {
         for (int attempt = 0; attempt < 1000; ++attempt) {
@@ -687,15 +684,7 @@ public:
     Pose2 advance(const Pose2& p, double step) {
         curvature_ += -0.15 * curvature_ + wander_ * rng_.normal();
         const double max_turn = step / 0.6;  // min turn radius 0.6 m while driving
-        double wanted = curvature_ * step;
-        if (goal_m_ > 0) {
-            // A waypoint reached, or not reached in three times its straight-line time, is
-            // replaced; the heading error to it steers on top of the wander.
-            if (!has_goal_ || std::hypot(goal_x_ - p.x, goal_y_ - p.y) < 1.0 || goal_frames_ <= 0) new_goal(p, step);
-            --goal_frames_;
-            wanted += 0.5 * std::remainder(std::atan2(goal_y_ - p.y, goal_x_ - p.x) - p.yaw, 2 * M_PI);
-        }
-        const double desired = std::clamp(wanted, -max_turn, max_turn);
+        const double desired = std::clamp(curvature_ * step, -max_turn, max_turn);
         double best_score = -1e9, best_turn = 0, best_clear = -1e9;
         for (int k = -4; k <= 4; ++k) {
             const double turn = k * max_turn / 4;
@@ -709,12 +698,11 @@ public:
         }
         Pose2 q = p;
         // Boxed in for a full turn on the spot: the operator squeezes the rover out for 1.5 m,
-        // passing closer to rocks than the usual margin (towards a new waypoint on a traverse).
-        // Without it a rover in a pocket between rocks turned on the spot for a whole run.
+        // passing closer to rocks than the usual margin. Without it a rover in a pocket between
+        // rocks turned on the spot for a whole run.
         if (unstick_ && spot_frames_ > 18) squeeze_frames_ = 15;
         if (best_clear < (squeeze_frames_ > 0 ? -0.3 : 0.05)) {
             ++spot_frames_;
-            if (goal_m_ > 0 && spot_frames_ % 19 == 0) new_goal(p, step);
             // Spot turn towards the freest direction, at most 0.35 rad per frame.
             double free_dir = 0, free_clear = -1e9;
             for (int k = 1; k < 21; ++k) {
@@ -739,29 +727,6 @@ public:
     }
 
 private:
-    void new_goal(const Pose2& p, double step) {
-        const double lo = margin_ + 0.5, hi = w_.size() - margin_ - 0.5;
-        double best = -1;
-        for (int attempt = 0; attempt < 200; ++attempt) {
-            const double x = goal_rng_->uniform(lo, hi), y = goal_rng_->uniform(lo, hi);
-            const double d = std::hypot(x - p.x, y - p.y);
-            if (clearance(x, y) < 0.3) continue;
-            if (d > best) {  // the farthest of the free draws when none is goal_m away
-                best = d;
-                goal_x_ = x;
-                goal_y_ = y;
-            }
-            if (d >= goal_m_) break;
-        }
-        has_goal_ = best >= 0;
-        if (!has_goal_) {
-            goal_x_ = w_.size() / 2;
-            goal_y_ = w_.size() / 2;
-            has_goal_ = true;
-        }
-        goal_frames_ = static_cast<int>(3 * std::hypot(goal_x_ - p.x, goal_y_ - p.y) / step) + 20;
-    }
-
     double clearance_along(const Pose2& p, double yaw, double length) const {
         double clear = 1e9;
         for (double d = 0.15; d <= length + 1e-9; d += 0.15) {
@@ -779,12 +744,7 @@ private:
     Rng& rng_;
     double margin_, wander_;
     double curvature_ = 0;
-    double goal_m_ = 0;
-    Rng* goal_rng_ = nullptr;
     bool unstick_ = false;
-    bool has_goal_ = false;
-    double goal_x_ = 0, goal_y_ = 0;
-    int goal_frames_ = 0;
     int spot_frames_ = 0;     // consecutive turns on the spot
     int squeeze_frames_ = 0;  // driving steps left with the reduced clearance
 };
@@ -818,8 +778,7 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
     Rng rng(mix(c.seed, 1000 + static_cast<std::uint64_t>(run)));
     Rng sensor_rng(mix(c.seed, 5000 + static_cast<std::uint64_t>(run)));
     Rng exposure_rng(mix(c.seed, 9000 + static_cast<std::uint64_t>(run)));  // colours only
-    Rng goal_rng(mix(c.seed, 13000 + static_cast<std::uint64_t>(run)));  // waypoints only
-    PathPlanner planner(world, rng, world.lab() ? 0.7 : 6.0, c.path_wander, c.path_goal_m, &goal_rng, c.path_unstick != 0);
+    PathPlanner planner(world, rng, world.lab() ? 0.7 : 6.0, c.path_wander, c.path_unstick != 0);
     Pose2 p2 = planner.start();
     Eigen::Isometry3d T_gt = base_pose(world, p2);
     Eigen::Isometry3d T_odom = T_gt;  // odometry starts at the true pose

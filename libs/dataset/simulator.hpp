@@ -55,9 +55,6 @@ struct SimConfig {
     // Rover and submaps.
     double frame_step_m = 0.1;      // distance driven between frames
     double path_wander = 0.1;       // curvature noise per frame [1/m]; stationary std ~2x this
-    // > 0: each run is a traverse between waypoints at least this far apart (an operator driving
-    // the rover across the hall); 0: a free wander (which may circle in one spot for a whole run).
-    double path_goal_m = 0.0;
     // 1: a rover boxed in between rocks for a full turn on the spot squeezes out (passing closer
     // than the usual clearance); 0: it may turn on the spot for the rest of the run.
     int path_unstick = 0;
