@@ -98,6 +98,10 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"rock_facets", i(c.rock_facets, 0, 64)},
         {"rock_molds", i(c.rock_molds, 0, 100000)},
         {"rock_roughness_m", r(c.rock_roughness_m, 0, 1)},
+        {"rock_size_exponent", r(c.rock_size_exponent, 0, 10)},
+        {"rock_min_m", r(c.rock_min_m, 0.02, 1.5)},
+        {"rock_drive_over_m", r(c.rock_drive_over_m, 0, 10)},
+        {"cast_shadows", i(c.cast_shadows, 0, 1)},
         {"image_width", i(c.image_width, 8, 4096)},
         {"image_height", i(c.image_height, 8, 4096)},
         {"hfov_deg", r(c.hfov_deg, 1, 170)},
@@ -292,6 +296,7 @@ public:
         if (lab_) build_lab(c, rng);
         else build_moon(c, rng);
         build_block_max();
+        if (!lab_ && c.cast_shadows != 0) build_shadows();
     }
 
     bool lab() const { return lab_; }
@@ -405,9 +410,9 @@ public:
         }
         const Eigen::Vector3d nrm = normal(p.x(), p.y());
         // Lab: diffuse ceiling light; moon: low sun, hard shading (features stand out).
-        const Eigen::Vector3d sun = lab_ ? Eigen::Vector3d(0.2, 0.1, 1).normalized()
-                                         : Eigen::Vector3d(0.7, 0.3, 0.45).normalized();
+        const Eigen::Vector3d sun = lab_ ? Eigen::Vector3d(0.2, 0.1, 1).normalized() : moon_sun();
         double lambert = std::max(0.0, nrm.dot(sun));
+        if (!shadow_.empty() && in_shadow(p.x(), p.y())) lambert = 0;
         if (m == kWall && lab_ && p.z() > 0.05) lambert = 0.8;  // height field walls have no true normal
         const float shade = static_cast<float>(lab_ ? 0.45 + 0.55 * lambert : 0.15 + 0.95 * lambert);
         return {a.r * shade, a.g * shade, a.b * shade};
@@ -533,6 +538,38 @@ private:
         return bmax_[static_cast<std::size_t>(bj) * bn_ + bi];
     }
 
+    // The moon's sun (the direction colour() shades with) is fixed in the world, so shadows are
+    // too: a cell is in shadow when the height field rises above the ray from it towards the sun
+    // (marched one cell at a time, up to 6 m: a 1 m rock's shadow at 31 degrees is 1.7 m).
+    static Eigen::Vector3d moon_sun() { return Eigen::Vector3d(0.7, 0.3, 0.45).normalized(); }
+    void build_shadows() {
+        const Eigen::Vector3d sun = moon_sun();
+        const double horiz = std::hypot(sun.x(), sun.y());
+        const double dx = sun.x() / horiz * res_, dy = sun.y() / horiz * res_, dz = sun.z() / horiz * res_;
+        const int steps = static_cast<int>(6.0 / res_);
+        float top = -1e9f;
+        for (const float h : h_) top = std::max(top, h);
+        shadow_.assign(h_.size(), 0);
+        for (int j = 0; j < ny_; ++j) {
+            for (int i = 0; i < nx_; ++i) {
+                const double x = x0_ + i * res_, y = y0_ + j * res_;
+                double z = h_[static_cast<std::size_t>(j) * nx_ + i] + 0.01;
+                for (int k = 1; k <= steps && z < top; ++k) {
+                    z += dz;
+                    if (height(x + k * dx, y + k * dy) > z) {
+                        shadow_[static_cast<std::size_t>(j) * nx_ + i] = 1;
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    bool in_shadow(double x, double y) const {
+        const int i = std::clamp(static_cast<int>(std::lround((x - x0_) / res_)), 0, nx_ - 1);
+        const int j = std::clamp(static_cast<int>(std::lround((y - y0_) / res_)), 0, ny_ - 1);
+        return shadow_[static_cast<std::size_t>(j) * nx_ + i] != 0;
+    }
+
     void build_lab(const SimConfig& c, Rng& rng) {
         const float wall_h = 2.5f;
         for (int j = 0; j < ny_; ++j) {
@@ -634,12 +671,22 @@ private:
         ground_ = h_;
         const int n = c.rocks > 0 ? c.rocks : static_cast<int>(90 * (size_ * size_) / 3600.0);
         for (int k = 0; k < n; ++k) {
-            const double d = 0.2 + 1.3 * std::pow(rng.uniform(), 2.0);  // 0.2..1.5 m, mostly small
+            const double u = rng.uniform();
+            double d = 0.2 + 1.3 * u * u;  // 0.2..1.5 m, mostly small
+            if (c.rock_size_exponent > 0) {
+                // Inverse CDF of the truncated power law N(>D) ~ D^-b on [rock_min_m, 1.5 m].
+                const double b = c.rock_size_exponent, lo = std::min(c.rock_min_m, 1.5);
+                d = lo * std::pow(1.0 - u * (1.0 - std::pow(lo / 1.5, b)), -1.0 / b);
+            }
             const double x = rng.uniform(0, size_), y = rng.uniform(0, size_);
             const double rx = d / 2, ry = d / 2 * rng.uniform(0.6, 1.0);
-            stamp(x, y, rx, ry, rng.uniform(0, M_PI), d * rng.uniform(0.3, 0.55),
-                  static_cast<std::uint16_t>(kRock + k), static_cast<std::uint32_t>(k + 500), true);
-            keep_out_.push_back({x, y, rx + 0.6});
+            // GCC evaluated stamp()'s arguments right to left: the height is drawn first.
+            const double tall = rng.uniform(0.3, 0.55);
+            const double rot = rng.uniform(0, M_PI);
+            // Material ids are 16 bit: rocks beyond 65 000 share ids (colour only).
+            stamp(x, y, rx, ry, rot, d * tall, static_cast<std::uint16_t>(kRock + k % 65000),
+                  static_cast<std::uint32_t>(k + 500), true);
+            if (d * tall > c.rock_drive_over_m) keep_out_.push_back({x, y, rx + 0.6});
         }
     }
 
@@ -652,6 +699,7 @@ private:
     double size_ = 0, res_ = 0, x0_ = 0, y0_ = 0;
     int nx_ = 0, ny_ = 0;
     std::vector<float> h_, ground_, bmax_;
+    std::vector<std::uint8_t> shadow_;  // moon cells the sun does not reach (cast_shadows)
     double block_ = 0.2;
     int bn_ = 0;
     std::vector<std::uint16_t> mat_;

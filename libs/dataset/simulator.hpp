@@ -34,6 +34,16 @@ struct SimConfig {
     // Rock surface roughness: amplitude [m] of fractal relief with wavelengths of ~8 cm and
     // ~4 cm on every rock (rough cast or natural stone); 0 = smooth (the presets).
     double rock_roughness_m = 0.0;
+    // Moon rock sizes: 0 = diameters 0.2..1.5 m, mostly small (d = 0.2 + 1.3 u^2); b > 0 = a
+    // power-law size-frequency distribution N(>D) ~ D^-b between rock_min_m and 1.5 m, the
+    // shape measured for lunar rock populations (b ~ 2..2.5): many pebbles, few boulders.
+    double rock_size_exponent = 0.0;
+    double rock_min_m = 0.2;
+    // Rocks at most this high [m] are driven over instead of avoided (0 = avoid every rock).
+    double rock_drive_over_m = 0.0;
+    // Moon: 1 = the low sun casts shadows (terrain and rocks shadow what lies behind them, lit
+    // only by the ambient term), 0 = Lambertian shading alone (what the moon had before).
+    int cast_shadows = 0;
 
     // Camera: a stereo pair (baseline_m) on a pan-tilt unit at camera_height_m. Rays are
     // cast on a subsampled image; the noise uses the real camera's focal length.

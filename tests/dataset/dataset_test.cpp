@@ -170,6 +170,32 @@ TEST(SimulatorTest, ExposureChangesColoursButNotGeometry) {
     EXPECT_EQ(off.obstacles.size(), on.obstacles.size());
 }
 
+// The moon's low sun casts shadows: the same points, some of them darker (only the ambient
+// term lights them), none brighter.
+TEST(SimulatorTest, CastShadowsDarkenSomePointsAndMoveNone) {
+    SimConfig c = sim_preset("moon-tiny");
+    c.runs = 1;
+    c.submaps = 2;
+    c.rocks = 200;  // a rock every 4.5 m²: enough shadowed ground in two small submaps
+    generate_dataset(c, temp_root() / "shadows_off");
+    c.cast_shadows = 1;
+    generate_dataset(c, temp_root() / "shadows_on");
+    const Submap off = Dataset::open(temp_root() / "shadows_off").load_submap(0, 1);
+    const Submap on = Dataset::open(temp_root() / "shadows_on").load_submap(0, 1);
+    ASSERT_EQ(off.cloud.size(), on.cloud.size());
+    std::size_t darker = 0, brighter = 0;
+    for (std::size_t i = 0; i < off.cloud.size(); ++i) {
+        EXPECT_EQ(off.cloud[i].x, on.cloud[i].x);
+        EXPECT_EQ(off.cloud[i].z, on.cloud[i].z);
+        darker += on.cloud[i].g + 2 < off.cloud[i].g ? 1 : 0;
+        brighter += on.cloud[i].g > off.cloud[i].g + 2 ? 1 : 0;
+    }
+    EXPECT_GT(darker, off.cloud.size() / 100);
+    EXPECT_LT(darker, off.cloud.size() / 2);
+    EXPECT_EQ(brighter, 0u);
+    EXPECT_EQ(off.obstacles.size(), on.obstacles.size());
+}
+
 // Lab appearance settings recolour surfaces without moving them; angular rocks change the
 // shape of the rocks only, deterministically.
 TEST(SimulatorTest, AppearanceAndRockShapeSettings) {
@@ -235,6 +261,32 @@ TEST(SimulatorTest, ARoverBoxedInBetweenRocksSqueezesOut) {
     };
     EXPECT_LT(run2_extent(0, "boxed_in"), 0.5);
     EXPECT_GT(run2_extent(1, "squeezed_out"), 2.0);
+}
+
+// Moon rock sizes: the power law puts most rocks near rock_min_m (pebbles), so the same count
+// covers far less ground than the old 0.2..1.5 m law; the terrain under the rocks is the same.
+TEST(SimulatorTest, PowerLawRocksAreMostlyPebbles) {
+    auto rock_cells = [](double exponent) {
+        SimConfig c = sim_preset("moon");
+        c.world_size = 20;
+        c.craters = 0;
+        c.rocks = 0;
+        const HeightMapImage bare = world_height_map(c, 0.05);
+        c.rocks = 400;
+        c.rock_size_exponent = exponent;
+        c.rock_min_m = 0.1;
+        const HeightMapImage rocky = world_height_map(c, 0.05);
+        std::size_t n = 0;
+        for (std::size_t i = 0; i < bare.height.size(); ++i) n += rocky.height[i] > bare.height[i] + 0.01f ? 1 : 0;
+        return static_cast<double>(n) * 0.05 * 0.05;  // m² raised by a rock
+    };
+    const double old_law = rock_cells(0), power_law = rock_cells(2.5);
+    // Old law: mean diameter ~0.6 m, ~0.2 m² each; b = 2.5 from 0.1 m: mean ~0.17 m.
+    EXPECT_GT(old_law, 400 * 0.1);
+    EXPECT_LT(power_law, 0.25 * old_law);
+    EXPECT_GT(power_law, 400 * 0.005);
+    SimConfig c;
+    EXPECT_NE(set_sim_option(c, "rock_min_m", "0").find("rock_min_m"), std::string::npos);
 }
 
 TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "params/yaml_util.hpp"
 
@@ -118,6 +119,27 @@ validate:
     EXPECT_DOUBLE_EQ(*e.validate[1].m_star_per_pair, 0.08);
     EXPECT_DOUBLE_EQ(*e.validate[2].m_star, 12);
     EXPECT_FALSE(e.validate[3].m_star.has_value());
+}
+
+// Every experiment the project ships (the demo, the reproduction kit) loads: a typo in a key,
+// a wrong relative path to a space or start point, or a bad view fails here, not after an hour.
+TEST(ShippedExperiments, EveryConfigLoads) {
+    int loaded = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(std::string(MAPTUNE_SOURCE_DIR) + "/configs/experiments")) {
+        if (entry.path().extension() != ".yaml") continue;
+        // Parameter sets sit beside some experiments (bench/x_baseline_n_TF_10.yaml): no name.
+        std::ifstream in(entry.path());
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        if (text.rfind("name:", 0) != 0 && text.find("\nname:") == std::string::npos) continue;
+        try {
+            const Experiment e = load_experiment(entry.path().string());
+            EXPECT_FALSE(e.name.empty()) << entry.path();
+            ++loaded;
+        } catch (const std::exception& err) {
+            ADD_FAILURE() << entry.path() << ": " << err.what();
+        }
+    }
+    EXPECT_GE(loaded, 10);
 }
 
 TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
