@@ -24,7 +24,9 @@ out=runs/reproduce-$mode-$(date -u +%Y%m%d-%H%M%S)
 mkdir -p "$out"
 if [ $mode = quick ]; then
   dir=configs/experiments/quick
-  experiments=(lab_2d_tK_rD lab_ssgt lab_ssi lab_ci moon_ssgt moon_ssi moon_ci)
+  # moon_ci (configs/experiments/quick/moon_ci.yaml) joins once the moon is calibrated (issue 10):
+  # on today's moon its gains are a handful of matches or many wrong ones (BENCHMARKS.md).
+  experiments=(lab_2d_tK_rD lab_ssgt lab_ssi lab_ci moon_ssgt moon_ssi)
   lab_heldout=datasets/quick_lab_heldout_4x15
   moon_heldout=datasets/quick_moon_heldout
 else
