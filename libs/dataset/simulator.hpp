@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,13 @@ struct SimConfig {
 std::string set_sim_option(SimConfig& config, const std::string& key, const std::string& value);
 // Every settable field as "key=value", in name order (written to the manifest's meta).
 std::vector<std::string> sim_options(const SimConfig& config);
+
+// Why a simulated dataset's manifest `meta` (world, seed, runs, submaps, sim) does not
+// describe what `config` would generate: "" when it does, else the first differing setting
+// and how many differ ("rocks: the dataset has 0, the settings ask for 600 (and 6 more)").
+// A setting missing from an older manifest is compared with its default (new settings
+// default to the old behaviour).
+std::string sim_settings_mismatch(const SimConfig& config, const std::map<std::string, std::string>& meta);
 
 // Presets "lab" (13 runs x 15 submaps) and "moon" (40 x 40); "lab-tiny" and "moon-tiny"
 // for tests. Throws std::invalid_argument naming the preset when unknown.

@@ -13,16 +13,37 @@ namespace maptune::evaluation {
 namespace fs = std::filesystem;
 using params::ConfigError;
 
+namespace {
+
+dataset::SimConfig generate_config(const experiment::GenerateSpec& generate) {
+    dataset::SimConfig config = dataset::sim_preset(generate.preset);
+    if (generate.runs > 0) config.runs = generate.runs;
+    if (generate.submaps > 0) config.submaps = generate.submaps;
+    config.seed = generate.seed;
+    return config;
+}
+
+}  // namespace
+
 void ensure_dataset(const std::string& dir, const std::optional<experiment::GenerateSpec>& generate,
                     const std::function<void(const std::string&)>& log) {
-    if (fs::exists(fs::path(dir) / "manifest.yaml")) return;
+    if (fs::exists(fs::path(dir) / "manifest.yaml")) {
+        // A dataset made by another preset (an older maptune, an edited config) would be
+        // tuned and validated on silently: refuse it, naming the setting.
+        if (!generate) return;
+        const dataset::Dataset existing = dataset::Dataset::open(dir);
+        if (existing.manifest().source != "simulator") return;
+        const std::string why = dataset::sim_settings_mismatch(generate_config(*generate), existing.manifest().meta);
+        if (!why.empty()) {
+            throw ConfigError(dir + ": not what dataset.generate (preset " + generate->preset + ") makes — " + why +
+                              "; remove the directory to regenerate it, or point dataset.dir elsewhere");
+        }
+        return;
+    }
     if (!generate) {
         throw ConfigError(dir + ": no dataset there, and no dataset.generate section to make one");
     }
-    dataset::SimConfig config = dataset::sim_preset(generate->preset);
-    if (generate->runs > 0) config.runs = generate->runs;
-    if (generate->submaps > 0) config.submaps = generate->submaps;
-    config.seed = generate->seed;
+    const dataset::SimConfig config = generate_config(*generate);
     if (log) {
         log("generating dataset " + dir + " (" + generate->preset + ", " + std::to_string(config.runs) +
             " runs x " + std::to_string(config.submaps) + " submaps, seed " + std::to_string(config.seed) + ")");

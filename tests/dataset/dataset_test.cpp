@@ -292,6 +292,26 @@ TEST(SimulatorTest, PowerLawRocksAreMostlyPebbles) {
     EXPECT_NE(set_sim_option(c, "rock_min_m", "0").find("rock_min_m"), std::string::npos);
 }
 
+// A manifest describes what a config generates; a setting an older manifest lacks counts as
+// its default (the old behaviour), so datasets made before the setting existed still fit.
+TEST(SimulatorTest, ManifestSettingsMismatchNamesTheSetting) {
+    SimConfig c = sim_preset("lab-tiny");
+    std::map<std::string, std::string> meta = Dataset::open(lab_tiny()).manifest().meta;
+    EXPECT_EQ(sim_settings_mismatch(c, meta), "");
+    c.rocks = 7;
+    EXPECT_EQ(sim_settings_mismatch(c, meta), "rocks: the dataset has 0, the settings ask for 7");
+    c.seed = 99;
+    EXPECT_EQ(sim_settings_mismatch(c, meta), "rocks: the dataset has 0, the settings ask for 7 (and 1 more)");
+    c = sim_preset("lab-tiny");
+    std::string& sim = meta.at("sim");
+    const auto at = sim.find("cast_shadows=0 ");
+    ASSERT_NE(at, std::string::npos) << sim;
+    sim.erase(at, std::string("cast_shadows=0 ").size());
+    EXPECT_EQ(sim_settings_mismatch(c, meta), "");
+    c.cast_shadows = 1;
+    EXPECT_EQ(sim_settings_mismatch(c, meta), "cast_shadows: the dataset has 0, the settings ask for 1");
+}
+
 TEST(SimulatorTest, FailureLeavesNothingThatLooksValid) {
     const fs::path out = temp_root() / "fail";
     {

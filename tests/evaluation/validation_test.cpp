@@ -119,6 +119,33 @@ TEST_F(ValidationTest, ErrorsNameWhatIsMissing) {
     }
 }
 
+// An existing directory is used only when it is what dataset.generate makes: a dataset of
+// another seed (or an older preset) is refused, naming the setting, and left untouched.
+TEST_F(ValidationTest, AnExistingDatasetOfOtherSettingsIsRefused) {
+    const std::string dir = (dir_ / "held").string();
+    experiment::GenerateSpec spec{"lab-tiny", 1, 2, 7};
+    ensure_dataset(dir, spec, {});
+    const std::string id = dataset::Dataset::open(dir).manifest().id;
+    ensure_dataset(dir, spec, {});  // the same settings: used as it is
+    spec.seed = 8;
+    try {
+        ensure_dataset(dir, spec, {});
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("seed: the dataset has 7, the settings ask for 8"), std::string::npos)
+            << err.what();
+        EXPECT_NE(std::string(err.what()).find(dir), std::string::npos) << err.what();
+    }
+    spec = {"lab", 1, 2, 7};  // another preset: many settings differ
+    try {
+        ensure_dataset(dir, spec, {});
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("more)"), std::string::npos) << err.what();
+    }
+    EXPECT_EQ(dataset::Dataset::open(dir).manifest().id, id);
+}
+
 // matcher.settings reach the matcher settings (and so the matcher version every worker must
 // announce); a bad one names file, line and key.
 TEST_F(ValidationTest, ExperimentMatcherSettingsAndTheirErrors) {
