@@ -24,15 +24,13 @@ out=runs/reproduce-$mode-$(date -u +%Y%m%d-%H%M%S)
 mkdir -p "$out"
 if [ $mode = quick ]; then
   dir=configs/experiments/quick
-  # moon_ci (configs/experiments/quick/moon_ci.yaml) joins once the moon is calibrated (issue 10):
-  # on today's moon its gains are a handful of matches or many wrong ones (BENCHMARKS.md).
-  experiments=(lab_2d_tK_rD lab_ssgt lab_ssi lab_ci moon_ssgt moon_ssi)
+  experiments=(lab_2d_tK_rD lab_ssgt lab_ssi lab_ci moon_ssgt moon_ssi moon_ci)
   lab_heldout=datasets/quick_lab_heldout_4x15
-  moon_heldout=datasets/quick_moon_heldout
+  moon_heldout=datasets/quick_moon_heldout_4x15
 else
   dir=configs/experiments
-  # No moon_ci at full scale: odometry over a 40-submap moon run is off by 0.35 m for the median
-  # pair and 1.7 m at the 90th percentile (e* 0.4 m), too far to judge every pair by.
+  # No moon_ci at full scale: odometry over a 40-submap moon run is off by 0.22 m for the median
+  # pair and 0.79 m at the 90th percentile (e* 0.4 m), too far to judge every pair by.
   experiments=(lab_2d_tK_rD lab_complete_gt lab_ssgt lab_ssi lab_ci moon_complete_gt moon_ssgt moon_ssi)
   lab_heldout=datasets/lab_heldout
   moon_heldout=datasets/moon_heldout
