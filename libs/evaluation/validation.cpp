@@ -36,7 +36,7 @@ void ensure_dataset(const std::string& dir, const std::optional<experiment::Gene
         const std::string why = dataset::sim_settings_mismatch(generate_config(*generate), existing.manifest().meta);
         if (!why.empty()) {
             throw ConfigError(dir + ": not what dataset.generate (preset " + generate->preset + ") makes — " + why +
-                              "; remove the directory to regenerate it, or point dataset.dir elsewhere");
+                              "; remove the directory to regenerate it, or drop the generate section to use it as it is");
         }
         return;
     }
