@@ -221,18 +221,15 @@ std::string sim_settings_mismatch(const SimConfig& config, const std::map<std::s
         for (std::string o; in >> o;) options.push_back(o);
         for (auto& [k, v] : split(options)) had[k] = v;
     }
-    auto meta_or = [&](const std::string& key) {
+    // Not among the sim options: their own meta keys (generate_dataset).
+    for (const auto& [key, value] : std::map<std::string, std::string>{{"world", config.world},
+                                                                      {"seed", std::to_string(config.seed)},
+                                                                      {"runs", std::to_string(config.runs)},
+                                                                      {"submaps", std::to_string(config.submaps)}}) {
+        wanted[key] = value;
         const auto it = meta.find(key);
-        return it == meta.end() ? std::string("(none)") : it->second;
-    };
-    wanted["world"] = config.world;
-    had["world"] = meta_or("world");
-    wanted["seed"] = std::to_string(config.seed);
-    had["seed"] = meta_or("seed");
-    wanted["runs"] = std::to_string(config.runs);
-    had["runs"] = meta_or("runs");
-    wanted["submaps"] = std::to_string(config.submaps);
-    had["submaps"] = meta_or("submaps");
+        had[key] = it == meta.end() ? "(none)" : it->second;
+    }
     std::string first;
     int differing = 0;
     for (const auto& [k, v] : wanted) {
