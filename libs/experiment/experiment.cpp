@@ -306,7 +306,7 @@ Experiment load_experiment(const std::string& file) {
     if (root["matcher"].IsDefined()) {
         const YamlPath p = top.child("matcher");
         const YAML::Node n = root["matcher"];
-        params::check_keys(n, p, {"id", "threads", "feature_cache_mb", "pair_time_limit_s", "total_time_limit_s", "settings"});
+        params::check_keys(n, p, {"id", "threads", "feature_cache_mb", "neighbour_cache_mb", "pair_time_limit_s", "total_time_limit_s", "settings"});
         if (n["id"].IsDefined()) {
             e.matcher_id = params::read_string(n["id"], p.child("id"));
             if (e.matcher_id.empty() || e.matcher_id.find_first_of(" \t/") != std::string::npos)
@@ -332,6 +332,9 @@ Experiment load_experiment(const std::string& file) {
         if (n["threads"].IsDefined()) e.matcher_threads = read_int(n["threads"], p.child("threads"), 0, 256);
         if (n["feature_cache_mb"].IsDefined()) {
             e.feature_cache_mb = read_int(n["feature_cache_mb"], p.child("feature_cache_mb"), 64, 1 << 20);
+        }
+        if (n["neighbour_cache_mb"].IsDefined()) {
+            e.neighbour_cache_mb = read_int(n["neighbour_cache_mb"], p.child("neighbour_cache_mb"), 0, 1 << 20);
         }
         if (n["pair_time_limit_s"].IsDefined()) {
             e.pair_time_limit_s = read_range(n["pair_time_limit_s"], p.child("pair_time_limit_s"), 0.01, 1e6);

@@ -82,6 +82,10 @@ struct Experiment {
     // matcher version. A view whose features do not fit recomputes them for every evaluation
     // (the full moon preset's 1 600 submaps do not fit in 4 GiB; 10 GiB does).
     int feature_cache_mb = 4096;
+    // Per worker: memory for the pairs' descriptor neighbour lists (matcher.neighbour_cache_mb),
+    // what lets a pair-stage-only change skip the descriptor GEMM; 0 disables the cache. The
+    // full moon's 31 200 pairs need about 1.6 GB at the baseline (BENCHMARKS, "Full moon scale").
+    int neighbour_cache_mb = 1024;
     // matcher.settings: non-optimized matcher settings KEY: VALUE (docs/matcher.md, as
     // `--matcher KEY=VALUE`); part of the matcher version. `where` names file, line and key.
     struct MatcherSetting {

@@ -159,6 +159,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
             } else {
                 matcher::FeatureCacheOptions cache;
                 cache.max_bytes = static_cast<std::size_t>(e.feature_cache_mb) << 20;
+                cache.max_neighbour_bytes = static_cast<std::size_t>(e.neighbour_cache_mb) << 20;
                 backends.push_back(std::make_unique<LruBackend>(*mirrors.back(), e.space, settings, cache));
             }
             workers.push_back(std::make_unique<MatcherWorker>(*worker_ps.back(), *backends.back(),

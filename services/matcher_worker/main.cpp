@@ -37,6 +37,12 @@ int main(int argc, char** argv) {
                    "computed features kept in memory, MB (default: 4096; a view whose features do not fit "
                    "recomputes them for every evaluation)")
         ->check(maptune::params::finite_range(64.0, 1e7));
+    double neighbour_cache_mb =
+        static_cast<double>(maptune::matcher::FeatureCacheOptions{}.max_neighbour_bytes >> 20);
+    app.add_option("--neighbour-cache-mb", neighbour_cache_mb,
+                   "descriptor neighbour lists of pairs kept in memory, MB (default: 1024; 0 = none; a view "
+                   "whose lists do not fit repeats the descriptor matching for every evaluation)")
+        ->check(maptune::params::finite_range(0.0, 1e7));
     std::string experiment_file;
     std::vector<std::string> overrides;
     app.add_option("--experiment", experiment_file,
@@ -72,6 +78,7 @@ int main(int argc, char** argv) {
         } else {
             maptune::matcher::FeatureCacheOptions feature_cache;
             feature_cache.max_bytes = static_cast<std::size_t>(feature_cache_mb * 1024 * 1024);
+            feature_cache.max_neighbour_bytes = static_cast<std::size_t>(neighbour_cache_mb * 1024 * 1024);
             backend = std::make_unique<LruBackend>(mirror, space, settings, feature_cache,
                                                    static_cast<std::size_t>(submap_cache_mb * 1024 * 1024));
         }

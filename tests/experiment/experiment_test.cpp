@@ -52,7 +52,7 @@ measure: {e_star: 0.3, m_star: 12, w_v: 0.4}
 budget: {evaluations: 17, seconds: 90}
 optimizer: {acquisition: ucb, ucb_kappa: 5, seed: 9, batch: 2}
 start_points: [base.yaml]
-matcher: {threads: 1, pair_time_limit_s: 5}
+matcher: {threads: 1, pair_time_limit_s: 5, feature_cache_mb: 512, neighbour_cache_mb: 0}
 workers: 3
 )"));
     EXPECT_EQ(e.name, "t");
@@ -73,6 +73,8 @@ workers: 3
     ASSERT_EQ(e.start_points.size(), 1u);
     EXPECT_DOUBLE_EQ(e.start_points[0].get("v_K"), 0.2) << "fixed values override start files";
     EXPECT_EQ(e.workers, 3);
+    EXPECT_EQ(e.feature_cache_mb, 512);
+    EXPECT_EQ(e.neighbour_cache_mb, 0) << "0 turns the neighbour-list cache off";
 
     const auto box = search_space(e);
     ASSERT_EQ(box.size(), 3u);
