@@ -84,7 +84,7 @@ struct Experiment {
     int feature_cache_mb = 4096;
     // Per worker: memory for the pairs' descriptor neighbour lists (matcher.neighbour_cache_mb),
     // what lets a pair-stage-only change skip the descriptor GEMM; 0 disables the cache. The
-    // full moon's 31 200 pairs need about 1.6 GB at the baseline (BENCHMARKS, "Full moon scale").
+    // full moon's 31 200 pairs do not fit in 1 GiB; 4 GiB does (BENCHMARKS, "Full moon scale").
     int neighbour_cache_mb = 1024;
     // matcher.settings: non-optimized matcher settings KEY: VALUE (docs/matcher.md, as
     // `--matcher KEY=VALUE`); part of the matcher version. `where` names file, line and key.
