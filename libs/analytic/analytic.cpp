@@ -1,7 +1,6 @@
 #include "analytic/analytic.hpp"
 
 #include <cmath>
-#include <map>
 #include <optional>
 
 #include "dataset/io.hpp"
@@ -39,21 +38,13 @@ std::optional<std::vector<store::PairRecord>> evaluate(const dataset::Dataset& d
                                                        double duration_s, std::string* error) {
     // Only the task's pairs are looked up: building every pair of the view per task made a
     // 31 000-pair evaluation quadratic (dispatch_bench: 76 tasks/s instead of 600).
-    std::map<std::string, std::pair<std::size_t, int>> where;  // submap id -> (run, index)
-    const auto& runs = dataset.manifest().runs;
-    for (std::size_t r = 0; r < runs.size(); ++r) {
-        for (std::size_t i = 0; i < runs[r].submaps.size(); ++i) where[runs[r].submaps[i].id] = {r, static_cast<int>(i)};
-    }
     auto reference = [&](const std::string& pid) -> std::optional<Eigen::Isometry3d> {
-        const auto bar = pid.find('|');
-        if (bar == std::string::npos) return std::nullopt;
-        const auto a = where.find(pid.substr(0, bar)), b = where.find(pid.substr(bar + 1));
-        if (a == where.end() || b == where.end() || a->second.first != b->second.first) return std::nullopt;
+        const auto ids = scoring::split_pair_id(pid);
+        if (!ids) return std::nullopt;
+        const auto a = dataset.locate(ids->first), b = dataset.locate(ids->second);
         // A run's pairs are all of its a < b (the loader checks pairs.txt holds n(n-1)/2 of them).
-        const auto& run = runs[a->second.first];
-        const int ia = a->second.second, ib = b->second.second;
-        if (ia >= ib) return std::nullopt;
-        return run.gt[static_cast<std::size_t>(ia)].T.inverse() * run.gt[static_cast<std::size_t>(ib)].T;
+        if (!a || !b || a->first != b->first || a->second >= b->second) return std::nullopt;
+        return dataset.relative_pose(a->first, a->second, b->second, dataset::Reference::gt);
     };
     const double q = quality(space, optimum, params);
     const std::string key = space.canonical_key(params);

@@ -483,6 +483,10 @@ Dataset Dataset::open(const fs::path& dir) {
         r.pairs = read_pairs(dir / r.pairs_file, static_cast<int>(n));
         m.runs.push_back(std::move(r));
     }
+    for (std::size_t ri = 0; ri < m.runs.size(); ++ri) {
+        for (std::size_t j = 0; j < m.runs[ri].submaps.size(); ++j)
+            ds.index_[m.runs[ri].submaps[j].id] = {static_cast<int>(ri), static_cast<int>(j)};
+    }
     return ds;
 }
 
@@ -496,7 +500,6 @@ std::vector<SubmapPair> Dataset::pairs(View view, Reference reference) const {
     std::vector<SubmapPair> out;
     for (std::size_t ri = 0; ri < manifest_.runs.size(); ++ri) {
         const RunRecord& r = manifest_.runs[ri];
-        const auto& poses = reference == Reference::gt ? r.gt : r.odometry;
         for (const auto& p : r.pairs) {
             if (view == View::subsequent && p.b != p.a + 1) continue;
             SubmapPair sp;
@@ -505,7 +508,7 @@ std::vector<SubmapPair> Dataset::pairs(View view, Reference reference) const {
             sp.b = p.b;
             sp.id_a = r.submaps[p.a].id;
             sp.id_b = r.submaps[p.b].id;
-            sp.T_a_b = poses[p.a].T.inverse() * poses[p.b].T;
+            sp.T_a_b = relative_pose(static_cast<int>(ri), p.a, p.b, reference);
             sp.overlap = p.overlap;
             out.push_back(sp);
         }
@@ -585,13 +588,20 @@ Submap Dataset::load_submap(int run, int index) const {
 }
 
 Submap Dataset::load_submap(const std::string& id) const {
-    for (std::size_t ri = 0; ri < manifest_.runs.size(); ++ri) {
-        const auto& sm = manifest_.runs[ri].submaps;
-        for (std::size_t j = 0; j < sm.size(); ++j) {
-            if (sm[j].id == id) return load_submap(static_cast<int>(ri), static_cast<int>(j));
-        }
-    }
+    if (const auto at = locate(id)) return load_submap(at->first, at->second);
     throw DatasetError(dir_, "no submap with id '" + id + "'");
+}
+
+std::optional<std::pair<int, int>> Dataset::locate(const std::string& id) const {
+    const auto it = index_.find(id);
+    if (it == index_.end()) return std::nullopt;
+    return it->second;
+}
+
+Eigen::Isometry3d Dataset::relative_pose(int run, int a, int b, Reference reference) const {
+    const RunRecord& r = manifest_.runs[static_cast<std::size_t>(run)];
+    const auto& poses = reference == Reference::gt ? r.gt : r.odometry;
+    return poses[static_cast<std::size_t>(a)].T.inverse() * poses[static_cast<std::size_t>(b)].T;
 }
 
 bool Dataset::verify(std::string* recomputed, const std::map<std::string, std::uint64_t>* file_hashes) const {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -168,6 +169,10 @@ public:
     // Loads clouds, obstacles and OctoMap; throws DatasetError on bad files.
     Submap load_submap(int run, int index) const;
     Submap load_submap(const std::string& id) const;
+    // (run, index) of the submap with this id, from an index built by open().
+    std::optional<std::pair<int, int>> locate(const std::string& id) const;
+    // Pose of submap b in submap a's frame (both of one run) under the reference's poses.
+    Eigen::Isometry3d relative_pose(int run, int a, int b, Reference reference) const;
     // Recomputes the content hash from the files; true when it matches the manifest's id.
     // `file_hashes` (relative path -> FNV-1a 64 of the content), when the caller already
     // hashed the files, spares reading them again.
@@ -177,6 +182,7 @@ public:
 private:
     std::filesystem::path dir_;
     Manifest manifest_;
+    std::map<std::string, std::pair<int, int>> index_;  // submap id -> (run, index)
 };
 
 struct MeanStd {

@@ -63,12 +63,12 @@ std::optional<std::vector<store::PairRecord>> match_pair_ids(matcher::Matcher& m
         return index[id] = static_cast<int>(submaps.size()) - 1;
     };
     for (const auto& pid : pair_ids) {
-        const auto bar = pid.find('|');
-        if (bar == std::string::npos || bar == 0 || bar + 1 >= pid.size()) {
+        const auto ids = scoring::split_pair_id(pid);
+        if (!ids) {
             *error = "malformed pair id '" + pid + "'";
             return std::nullopt;
         }
-        const int a = index_of(pid.substr(0, bar)), b = index_of(pid.substr(bar + 1));
+        const int a = index_of(ids->first), b = index_of(ids->second);
         if (a < 0 || b < 0) return std::nullopt;
         pairs.emplace_back(a, b);
     }

@@ -29,6 +29,12 @@ Eigen::Isometry3d to_isometry(const Eigen::Matrix4d& m) {
 
 std::string pair_id(const dataset::SubmapPair& pair) { return pair.id_a + "|" + pair.id_b; }
 
+std::optional<std::pair<std::string, std::string>> split_pair_id(const std::string& pair_id) {
+    const auto bar = pair_id.find('|');
+    if (bar == std::string::npos || bar == 0 || bar + 1 >= pair_id.size()) return std::nullopt;
+    return std::make_pair(pair_id.substr(0, bar), pair_id.substr(bar + 1));
+}
+
 double derive_m_star(const std::vector<double>& overlaps, double min_overlap) {
     std::size_t n = 0;
     for (double o : overlaps) n += o >= min_overlap ? 1 : 0;

@@ -3,6 +3,7 @@
 // and p are computed from the estimated transforms, so one observation serves gt and
 // odometry, and any e*/m*). Light: no matcher, no PCL.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,8 @@ namespace maptune::scoring {
 
 // "run00/submap003|run00/submap004": the id of a pair's result in the store.
 std::string pair_id(const dataset::SubmapPair& pair);
+// The two submap ids of a pair id; none when it is not "<a>|<b>" with both non-empty.
+std::optional<std::pair<std::string, std::string>> split_pair_id(const std::string& pair_id);
 
 // Default m* (SPEC §2 asks for one derived from the data): the number of pairs of the view
 // whose ground-truth overlap is at least `min_overlap` — the matches a good matcher can find.

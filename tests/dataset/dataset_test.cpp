@@ -380,9 +380,12 @@ TEST(DatasetTest, ViewsAndReferenceTransforms) {
     const auto subsequent = d.pairs(View::subsequent, Reference::odometry);
     EXPECT_EQ(complete.size(), 2u * 6u);
     EXPECT_EQ(subsequent.size(), 2u * 3u);
+    EXPECT_FALSE(d.locate("run09/submap000").has_value());
     for (const auto& p : complete) {
         const auto& r = m.runs[p.run];
         EXPECT_TRUE(p.T_a_b.isApprox(r.gt[p.a].T.inverse() * r.gt[p.b].T, 1e-12));
+        EXPECT_EQ(d.locate(p.id_a), std::make_optional(std::make_pair(p.run, p.a)));
+        EXPECT_EQ(d.locate(p.id_b), std::make_optional(std::make_pair(p.run, p.b)));
         EXPECT_GE(p.overlap, 0);
         EXPECT_LE(p.overlap, 1);
     }

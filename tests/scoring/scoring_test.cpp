@@ -40,6 +40,15 @@ std::vector<store::PairRecord> results(const std::vector<dataset::SubmapPair>& p
     return out;
 }
 
+TEST(PairIdTest, SplitsWhatPairIdJoinsAndRefusesTheRest) {
+    dataset::SubmapPair p;
+    p.id_a = "run00/submap003";
+    p.id_b = "run00/submap004";
+    EXPECT_EQ(split_pair_id(pair_id(p)), std::make_optional(std::make_pair(p.id_a, p.id_b)));
+    for (const std::string bad : {"run00/submap003", "|run00/submap004", "run00/submap003|", ""})
+        EXPECT_FALSE(split_pair_id(bad).has_value()) << bad;
+}
+
 TEST_F(ScoringTest, ExactEstimatesScoreTheMeasureOfZeroError) {
     const auto ds = dataset::Dataset::open(root_ / "ds");
     const auto pairs = ds.pairs(dataset::View::subsequent, dataset::Reference::gt);
