@@ -8,7 +8,6 @@
 #include <pcl/features/shot.h>
 #include <pcl/features/shot_lrf.h>
 #include <pcl/filters/statistical_outlier_removal.h>
-#include <pcl/kdtree/kdtree_flann.h>
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +15,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "matcher/direct_kdtree.hpp"
 #include "matcher/features_internal.hpp"
 
 namespace maptune::matcher {
@@ -23,6 +23,10 @@ namespace {
 
 using PointT = pcl::PointXYZRGBA;
 using Cloud = pcl::PointCloud<PointT>;
+
+// Every PCL estimator here searches through DirectKdTree (direct_kdtree.hpp: no OpenMP region
+// per query), unsorted like the tree the estimators make by default: the same results.
+pcl::search::Search<PointT>::Ptr direct_tree() { return std::make_shared<DirectKdTree<PointT>>(false); }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -211,7 +215,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     }
     f->keypoint_candidates = static_cast<int>(candidates->size());
     const auto thinned = voxelize(*candidates, params.v_K);
-    pcl::KdTreeFLANN<PointT> cloud_tree;
+    DirectKdTree<PointT> cloud_tree;
     cloud_tree.setInputCloud(filtered);
     std::vector<int> keypoint_idx;
     keypoint_idx.reserve(thinned->size());
@@ -262,7 +266,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
         // CSHOT reads only surface points within r_D of a keypoint: estimate normals for
         // those alone (normals were ~40 % of this function on lab submaps; the union of the
         // balls is a fraction of the cloud). The descriptors do not change.
-        pcl::KdTreeFLANN<PointT> surface_tree;
+        DirectKdTree<PointT> surface_tree;
         surface_tree.setInputCloud(desc_surface);
         std::vector<char> used(desc_surface->size(), 0);
         pcl::Indices nn;
@@ -279,6 +283,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     auto normals = pcl::PointCloud<pcl::Normal>::Ptr(new pcl::PointCloud<pcl::Normal>);
     {
         pcl::NormalEstimation<PointT, pcl::Normal> ne;
+        ne.setSearchMethod(direct_tree());
         ne.setInputCloud(desc_surface);
         ne.setSearchSurface(normal_surface);
         ne.setRadiusSearch(params.r_N);
@@ -312,6 +317,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
     pcl::PointCloud<pcl::SHOT1344> shot;
     {
         pcl::SHOTColorEstimation<PointT, pcl::Normal, pcl::SHOT1344> est;
+        est.setSearchMethod(direct_tree());
         est.setInputCloud(keypoints);
         est.setSearchSurface(desc_surface);
         est.setInputNormals(normals);
@@ -330,6 +336,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
             auto surface_normals =
                 pcl::PointCloud<pcl::Normal>::Ptr(new pcl::PointCloud<pcl::Normal>);
             pcl::NormalEstimation<PointT, pcl::Normal> ne;
+            ne.setSearchMethod(direct_tree());
             ne.setSearchSurface(normal_surface);
             ne.setRadiusSearch(params.r_N);
             ne.setViewPoint(static_cast<float>(settings.viewpoint_x),
@@ -338,6 +345,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
             ne.setInputCloud(lrf_surface);
             ne.compute(*surface_normals);
             pcl::BOARDLocalReferenceFrameEstimation<PointT, pcl::Normal, pcl::ReferenceFrame> est;
+            est.setSearchMethod(direct_tree());
             est.setInputCloud(keypoints);
             est.setInputNormals(surface_normals);
             est.setSearchSurface(lrf_surface);
@@ -346,6 +354,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
             est.compute(frames);
         } else {
             pcl::SHOTLocalReferenceFrameEstimation<PointT, pcl::ReferenceFrame> est;
+            est.setSearchMethod(direct_tree());
             est.setInputCloud(keypoints);
             est.setSearchSurface(lrf_surface);
             est.setRadiusSearch(params.r_LRF);
@@ -416,6 +425,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
         pcl::PointCloud<pcl::Normal> icp_normals;
         if (settings.icp_point_to_plane) {
             pcl::NormalEstimation<PointT, pcl::Normal> ne;
+            ne.setSearchMethod(direct_tree());
             ne.setInputCloud(src);
             ne.setRadiusSearch(settings.icp_voxel_m > 0 ? 3.0 * settings.icp_voxel_m : params.r_N);
             ne.compute(icp_normals);
@@ -437,7 +447,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
             }
             icp->cloud->push_back(q);
         }
-        icp->tree.reset(new pcl::search::KdTree<IcpPoint>);
+        icp->tree.reset(new DirectKdTree<IcpPoint>);
         icp->tree->setInputCloud(icp->cloud);
         // As ICP source, one point per coarser voxel: point-to-plane accuracy comes from the
         // target's normals, and the source size is what every iteration's searches cost.
