@@ -78,6 +78,11 @@ int main(int argc, char** argv) {
     app.add_option("--data", data, "where to generate the dataset (kept between runs)");
     std::string security;
     app.add_option("--dds-security", security, "DDS-Security PKI (scripts/make-pki.sh): measure its cost");
+    bool no_locality = false;
+    app.add_flag("--no-locality", no_locality, "sample_db hands out shards without regard to submaps (what locality costs)");
+    std::string profile = "maptune_loopback";
+    app.add_option("--dds-profile", profile,
+                   "participant profile of the built-in XML, e.g. maptune_loopback_shm (default: maptune_loopback, UDP on 127.0.0.1)");
     CLI11_PARSE(app, argc, argv);
 
     const fs::path ds_dir = fs::path(data) / ("lab-" + std::to_string(submaps));
@@ -91,7 +96,7 @@ int main(int argc, char** argv) {
     std::random_device rd;
     const int domain = std::uniform_int_distribution<int>(1, 200)(rd);
     auto participant = [&](const std::string& name, const std::string& role) {
-        maptune::dds::ParticipantOptions po{domain, "", "maptune_loopback", name};
+        maptune::dds::ParticipantOptions po{domain, "", profile, name};
         po.security_dir = security;
         po.identity = role;
         return std::make_unique<maptune::dds::Participant>(po);
@@ -109,6 +114,7 @@ int main(int argc, char** argv) {
     o.store_path = (tmp / "obs.db").string();
     o.spaces = {space};
     o.scheduler.shard_size = 1;  // one pair per task: tasks/s = dispatch rate
+    o.scheduler.locality = !no_locality;
     services::SampleDb db(*db_p, db_mirror, o);
 
     std::vector<std::unique_ptr<maptune::dds::Participant>> ps;

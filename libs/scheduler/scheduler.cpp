@@ -353,33 +353,47 @@ bool Scheduler::worth_joining(const Worker& w, const Job& job, int component, do
         const Level& l = levels.at(c);
         const double share = l.pairs / (holders(c) + extra);
         std::set<int> got;
-        std::vector<char> taken(l.queued.size(), 0);
-        double pairs = 0;
-        while (pairs < share) {
-            // As pick_for: fewest new submaps per pair, then fewest held by the others.
-            std::size_t pick = l.queued.size(), pick_new = 0, pick_pairs = 1, pick_others = 0;
-            for (std::size_t i = 0; i < l.queued.size(); ++i) {
-                if (taken[i]) continue;
-                std::size_t fresh = 0, others = 0;
-                for (const int sub : l.queued[i]->submaps) {
-                    if (holds(mine, sub) || got.count(sub)) continue;
-                    ++fresh;
-                    others += l.held.count(sub);
-                }
-                const std::size_t n = std::max<std::size_t>(1, l.queued[i]->pairs.size());
-                if (pick == l.queued.size() || fresh * pick_pairs < pick_new * n ||
-                    (fresh * pick_pairs == pick_new * n && others < pick_others)) {
-                    pick = i;
-                    pick_new = fresh;
-                    pick_pairs = n;
-                    pick_others = others;
-                }
+        const std::size_t q = l.queued.size();
+        std::vector<char> taken(q, 0);
+        // Per queued shard, its submaps new to the newcomer and how many of those others hold;
+        // both only fall as `got` grows, so the shards stay in an ordered set updated per new
+        // submap instead of rescanning every shard per pick (that rescan was quadratic in the
+        // queue: the coordinator's hot spot with many workers).
+        std::vector<std::size_t> fresh(q, 0), others(q, 0), per(q, 1);
+        std::map<int, std::vector<std::size_t>> containing;  // submap new to `w` -> shards with it
+        for (std::size_t i = 0; i < q; ++i) {
+            per[i] = std::max<std::size_t>(1, l.queued[i]->pairs.size());
+            for (const int sub : l.queued[i]->submaps) {
+                if (holds(mine, sub)) continue;
+                ++fresh[i];
+                others[i] += l.held.count(sub);
+                containing[sub].push_back(i);
             }
-            if (pick == l.queued.size()) break;
+        }
+        // As pick_for: fewest new submaps per pair, then fewest held by the others, then first.
+        auto before = [&](std::size_t a, std::size_t b) {
+            const std::size_t x = fresh[a] * per[b], y = fresh[b] * per[a];
+            if (x != y) return x < y;
+            if (others[a] != others[b]) return others[a] < others[b];
+            return a < b;
+        };
+        std::set<std::size_t, decltype(before)> order(before);
+        for (std::size_t i = 0; i < q; ++i) order.insert(i);
+        double pairs = 0;
+        while (pairs < share && !order.empty()) {
+            const std::size_t pick = *order.begin();
+            order.erase(order.begin());
             taken[pick] = 1;
             pairs += static_cast<double>(l.queued[pick]->pairs.size());
             for (const int sub : l.queued[pick]->submaps) {
-                if (!holds(mine, sub)) got.insert(sub);
+                if (holds(mine, sub) || !got.insert(sub).second) continue;
+                for (const std::size_t j : containing[sub]) {
+                    if (taken[j]) continue;
+                    order.erase(j);
+                    --fresh[j];
+                    others[j] -= l.held.count(sub);
+                    order.insert(j);
+                }
             }
         }
         // Computed by others too: held by them already, or needed by the shards left to them.
