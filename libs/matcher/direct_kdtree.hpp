@@ -24,7 +24,6 @@ namespace maptune::matcher {
 template <typename PointT>
 class DirectKdTree : public pcl::search::KdTree<PointT> {
 public:
-    using Ptr = std::shared_ptr<DirectKdTree<PointT>>;
     using typename pcl::search::KdTree<PointT>::PointCloudConstPtr;
     using IndicesConstPtr = pcl::IndicesConstPtr;
     using pcl::search::KdTree<PointT>::nearestKSearch;
@@ -63,65 +62,56 @@ public:
 
     int nearestKSearch(const PointT& point, int k, pcl::Indices& k_indices,
                        std::vector<float>& k_sqr_distances) const override {
-        const std::size_t n = mapping_.size();
-        const std::size_t want = k > 0 ? std::min(static_cast<std::size_t>(k), n) : 0;
-        k_indices.resize(want);
-        k_sqr_distances.resize(want);
-        if (want == 0 || !index_) return 0;
-        const float q[3] = {point.x, point.y, point.z};
+        const std::size_t want = k > 0 ? std::min(static_cast<std::size_t>(k), mapping_.size()) : 0;
+        k_indices.clear();
+        k_sqr_distances.clear();
+        if (want == 0) return 0;
         const flann::SearchParams params(-1, 0.0f);  // pcl::KdTreeFLANN's param_k_
-        thread_local std::vector<std::size_t> found;
-        found.resize(want);
         // FLANN's knnSearch: a simple result set up to 250 neighbours, a heap beyond.
-        std::size_t got = 0;
         if (want > 250) {
             flann::KNNResultSet2<float> set(want);
-            index_->findNeighbors(set, q, params);
-            got = std::min(set.size(), want);
-            set.copy(found.data(), k_sqr_distances.data(), got, params.sorted);
-        } else {
-            flann::KNNSimpleResultSet<float> set(want);
-            index_->findNeighbors(set, q, params);
-            got = std::min(set.size(), want);
-            set.copy(found.data(), k_sqr_distances.data(), got, params.sorted);
+            return collect(set, point, params, want, k_indices, k_sqr_distances);
         }
-        for (std::size_t i = 0; i < got; ++i) k_indices[i] = mapping_[found[i]];
-        return static_cast<int>(want);
+        flann::KNNSimpleResultSet<float> set(want);
+        return collect(set, point, params, want, k_indices, k_sqr_distances);
     }
 
     int radiusSearch(const PointT& point, double radius, pcl::Indices& k_indices,
                      std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override {
+        const std::size_t n = mapping_.size();
         k_indices.clear();
         k_sqr_distances.clear();
-        const std::size_t n = mapping_.size();
-        if (!index_ || n == 0) return 0;
-        const float q[3] = {point.x, point.y, point.z};
+        if (n == 0) return 0;
         const flann::SearchParams params(-1, 0.0f, this->sorted_results_);  // KdTreeFLANN's param_radius_
         const float r2 = static_cast<float>(radius * radius);
-        thread_local std::vector<std::size_t> found;
-        std::size_t got = 0;
         if (max_nn == 0 || max_nn >= n) {
             flann::RadiusResultSet<float> set(r2);
-            index_->findNeighbors(set, q, params);
-            got = set.size();
-            found.resize(got);
-            k_sqr_distances.resize(got);
-            if (got > 0) set.copy(found.data(), k_sqr_distances.data(), got, params.sorted);
-        } else {
-            flann::KNNRadiusResultSet<float> set(r2, max_nn);
-            index_->findNeighbors(set, q, params);
-            got = std::min<std::size_t>(set.size(), max_nn);
-            found.resize(got);
-            k_sqr_distances.resize(got);
-            if (got > 0) set.copy(found.data(), k_sqr_distances.data(), got, params.sorted);
+            return collect(set, point, params, n, k_indices, k_sqr_distances);
         }
-        k_indices.resize(got);
-        for (std::size_t i = 0; i < got; ++i) k_indices[i] = mapping_[found[i]];
-        return static_cast<int>(got);
+        flann::KNNRadiusResultSet<float> set(r2, max_nn);
+        return collect(set, point, params, max_nn, k_indices, k_sqr_distances);
     }
 
 private:
     using Index = flann::KDTreeSingleIndex<flann::L2_Simple<float>>;
+
+    // One FLANN search with `set`, as FLANN's batch searches run it for each query: at most
+    // `limit` results, copied (sorted or not, per `params`) and mapped to cloud indices.
+    template <class ResultSet>
+    int collect(ResultSet& set, const PointT& point, const flann::SearchParams& params, std::size_t limit,
+                pcl::Indices& indices, std::vector<float>& sqr_distances) const {
+        const float q[3] = {point.x, point.y, point.z};
+        index_->findNeighbors(set, q, params);
+        const std::size_t got = std::min(set.size(), limit);
+        thread_local std::vector<std::size_t> found;
+        found.resize(got);
+        indices.resize(got);
+        sqr_distances.resize(got);
+        if (got > 0) set.copy(found.data(), sqr_distances.data(), got, params.sorted);
+        for (std::size_t i = 0; i < got; ++i) indices[i] = mapping_[found[i]];
+        return static_cast<int>(got);
+    }
+
     std::vector<float> xyz_;
     std::vector<pcl::index_t> mapping_;  // FLANN row -> index into the input cloud
     std::unique_ptr<Index> index_;
