@@ -78,6 +78,8 @@ int main(int argc, char** argv) {
     app.add_option("--data", data, "where to generate the dataset (kept between runs)");
     std::string security;
     app.add_option("--dds-security", security, "DDS-Security PKI (scripts/make-pki.sh): measure its cost");
+    bool unfiltered = false;
+    app.add_flag("--unfiltered-tasks", unfiltered, "workers read every task, not only their own (what the content filter buys)");
     bool no_locality = false;
     app.add_flag("--no-locality", no_locality, "sample_db hands out shards without regard to submaps (what locality costs)");
     std::string profile = "maptune_loopback";
@@ -127,7 +129,7 @@ int main(int argc, char** argv) {
         mirrors.back()->add_local(ds_dir);
         backends.push_back(std::make_unique<TimedBackend>(*mirrors.back(), space));
         workers.push_back(std::make_unique<services::MatcherWorker>(*ps.back(), *backends.back(),
-                                                                    services::WorkerOptions{"w" + std::to_string(i), 1, 0.5}));
+                                                                    services::WorkerOptions{"w" + std::to_string(i), 1, 0.5, !unfiltered}));
     }
     auto client_p = participant("client", "optimizer");
     std::mutex m;

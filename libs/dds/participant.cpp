@@ -1,6 +1,10 @@
 #include "dds/participant.hpp"
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/topic/ContentFilteredTopic.hpp>
+#include <fastdds/dds/topic/IContentFilterFactory.hpp>
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
 
 #include <algorithm>
 #include <cstring>
@@ -73,6 +77,75 @@ std::vector<std::pair<std::string, std::string>> security_properties(const Parti
     };
 }
 
+namespace {
+
+// Content filter "the type's `member`-th leading string member equals %0" (expression: the
+// member's 0-based index). It reads only those strings of the CDR payload, so a writer can
+// afford to evaluate it for every reader of every sample. (Fast DDS's DDS-SQL filter needs the
+// types' TypeObjects, and evaluating it through DynamicData made task dispatch 2-3x slower
+// than sending every task to every worker.)
+constexpr const char* kLeadingStringFilter = "MAPTUNE_LEADING_STRING";
+
+// Fast DDS's filter interfaces have no virtual destructor; these classes are final and only
+// ever deleted as themselves.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnon-virtual-dtor"
+class LeadingStringFilter final : public fdds::IContentFilter {
+public:
+    LeadingStringFilter(int member, std::string value) : member_(member), value_(std::move(value)) {}
+    void set_value(std::string value) { value_ = std::move(value); }
+
+    bool evaluate(const SerializedPayload& payload, const FilterSampleInfo&, const GUID_t&) const override {
+        try {
+            eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(payload.data), payload.length);
+            eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+            cdr.read_encapsulation();
+            std::string s;
+            for (int i = 0; i <= member_; ++i) cdr >> s;
+            return s == value_;
+        } catch (const std::exception&) {
+            return true;  // unreadable here: let the reader's own checks refuse it
+        }
+    }
+
+private:
+    int member_;
+    std::string value_;
+};
+
+class LeadingStringFilterFactory final : public fdds::IContentFilterFactory {
+public:
+    ReturnCode_t create_content_filter(const char*, const char*, const fdds::TopicDataType*, const char* expression,
+                                       const ParameterSeq& parameters, fdds::IContentFilter*& filter) override {
+        if (parameters.length() != 1 || parameters[0] == nullptr) return ReturnCode_t::RETCODE_BAD_PARAMETER;
+        if (expression == nullptr) {  // new parameters for the existing filter
+            if (filter == nullptr) return ReturnCode_t::RETCODE_BAD_PARAMETER;
+            static_cast<LeadingStringFilter*>(filter)->set_value(parameters[0]);
+            return ReturnCode_t::RETCODE_OK;
+        }
+        char* end = nullptr;
+        const long member = std::strtol(expression, &end, 10);
+        if (end == expression || *end != '\0' || member < 0 || member > 16) return ReturnCode_t::RETCODE_BAD_PARAMETER;
+        delete static_cast<LeadingStringFilter*>(filter);
+        filter = new LeadingStringFilter(static_cast<int>(member), parameters[0]);
+        return ReturnCode_t::RETCODE_OK;
+    }
+    ReturnCode_t delete_content_filter(const char*, fdds::IContentFilter* filter) override {
+        delete static_cast<LeadingStringFilter*>(filter);
+        return ReturnCode_t::RETCODE_OK;
+    }
+};
+
+#pragma GCC diagnostic pop
+
+// Outlives every participant (registered with each).
+LeadingStringFilterFactory& leading_string_filters() {
+    static LeadingStringFilterFactory factory;
+    return factory;
+}
+
+}  // namespace
+
 std::string qos_profile(TopicQos qos, bool writer) {
     const char* base = qos == TopicQos::kReliable ? "maptune_reliable"
                        : qos == TopicQos::kLatched ? "maptune_latched"
@@ -84,6 +157,8 @@ fdds::DataWriterQos Participant::writer_qos(TopicQos qos) const {
     fdds::DataWriterQos q;
     if (publisher_->get_datawriter_qos_from_profile(qos_profile(qos, true), q) != ReturnCode_t::RETCODE_OK)
         throw DdsError("DDS QoS profile '" + qos_profile(qos, true) + "' is missing (configs/dds/qos.xml)");
+    q.writer_resource_limits().reader_filters_allocation =
+        eprosima::fastrtps::ResourceLimitedContainerConfig(0, kMaxReaderFilters, 1);
     return q;
 }
 
@@ -125,6 +200,7 @@ Participant::Participant(const ParticipantOptions& options) : domain_id_(options
                                                " (certificate not valid now, not signed by ca.pem, or "
                                                "permissions not matching it)"));
     }
+    participant_->register_content_filter_factory(kLeadingStringFilter, &leading_string_filters());
     publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
     subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
     if (publisher_ == nullptr || subscriber_ == nullptr) {
@@ -150,6 +226,17 @@ fdds::Topic* Participant::topic_for(const std::string& topic, fdds::TopicDataTyp
     if (t == nullptr) throw DdsError("cannot create DDS topic '" + topic + "'" + denied_hint("use"));
     topics_[topic] = t;
     return t;
+}
+
+fdds::TopicDescription* Participant::filtered_topic(fdds::Topic* topic, int member, const std::string& value) {
+    const std::string name = topic->get_name() + "|" + std::to_string(member) + "=" + value;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = filtered_topics_.find(name); it != filtered_topics_.end()) return it->second;
+    fdds::TopicDescription* d = participant_->create_contentfilteredtopic(name, topic, std::to_string(member),
+                                                                          {value}, kLeadingStringFilter);
+    if (d == nullptr) d = topic;  // unfiltered: the callback still checks
+    filtered_topics_[name] = d;
+    return d;
 }
 
 }  // namespace maptune::dds

@@ -51,6 +51,10 @@ std::vector<std::pair<std::string, std::string>> security_properties(const Parti
 
 // Delivery semantics of a topic: each is a pair of writer/reader profiles in
 // configs/dds/qos.xml (compiled in; the wire contract in docs/plugin-matcher.md).
+// Readers with a content filter a writer evaluates for them (beyond that, it sends them every
+// sample and they filter on receipt). Fast DDS's default is 32.
+inline constexpr int kMaxReaderFilters = 1024;
+
 enum class TopicQos {
     kReliable,  // reliable, volatile, keep last 1000: requests, tasks, results
     kLatched,   // reliable, transient-local, keep last 1 per key: late joiners get the latest
@@ -177,6 +181,28 @@ public:
         return Subscription(std::move(gate));
     }
 
+    // A reader that gets only the samples whose `member`-th leading string member (0-based,
+    // in IDL order; EvaluationTask's worker_id is 1) equals `value`: a content-filtered topic.
+    // The filter is announced in discovery, so a maptune writer evaluates it for each reader
+    // (up to kMaxReaderFilters per writer) and sends each sample only to the readers that
+    // want it instead of to all of them: the task topic's fan-out to every worker. Foreign
+    // writers send everything and the reader filters; callbacks check the field anyway.
+    template <class PubSubType>
+    [[nodiscard]] Subscription reader_where(const std::string& topic, TopicQos qos, int member,
+                                            const std::string& value,
+                                            std::function<void(const typename PubSubType::type&)> on_sample) {
+        auto* t = topic_for(topic, new PubSubType());
+        auto* described = filtered_topic(t, member, value);
+        const auto rq = reader_qos(qos);
+        auto gate = std::make_shared<ReaderGate>();
+        auto listener = std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample), gate);
+        auto* r = subscriber_->create_datareader(described, rq, listener.get());
+        if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'" + denied_hint("read"));
+        std::lock_guard<std::mutex> lock(mutex_);
+        listeners_.push_back(std::move(listener));
+        return Subscription(std::move(gate));
+    }
+
     // The QoS of qos_profile(qos, …); throws DdsError when the profile is missing.
     eprosima::fastdds::dds::DataWriterQos writer_qos(TopicQos qos) const;
     eprosima::fastdds::dds::DataReaderQos reader_qos(TopicQos qos) const;
@@ -185,6 +211,11 @@ private:
     // Registers the type on first use (taking ownership of `type`) and returns the topic.
     eprosima::fastdds::dds::Topic* topic_for(const std::string& topic,
                                             eprosima::fastdds::dds::TopicDataType* type);
+
+    // The content-filtered view of `topic` where leading string `member` = `value` (made once
+    // per pair); `topic` itself when no filter can be made.
+    eprosima::fastdds::dds::TopicDescription* filtered_topic(eprosima::fastdds::dds::Topic* topic, int member,
+                                                            const std::string& value);
 
     // With DDS-Security, why an entity may be refused: the identity's permissions.
     std::string denied_hint(const std::string& verb) const {
@@ -199,6 +230,7 @@ private:
     eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
     std::mutex mutex_;
     std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+    std::map<std::string, eprosima::fastdds::dds::TopicDescription*> filtered_topics_;
     std::vector<std::unique_ptr<eprosima::fastdds::dds::DataReaderListener>> listeners_;
 };
 

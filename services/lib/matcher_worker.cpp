@@ -15,8 +15,7 @@ MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backe
     results_ = participant.writer<v1::TaskResultPubSubType>(dds::topics::kTaskResult, dds::TopicQos::kReliable);
     // Heartbeats are reliable too: a lost one must not look like a dead worker.
     status_ = participant.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
-    subscriptions_.push_back(participant.reader<v1::EvaluationTaskPubSubType>(
-        dds::topics::kEvaluationTask, dds::TopicQos::kReliable, [this](const v1::EvaluationTask& t) {
+    auto on_task = [this](const v1::EvaluationTask& t) {
             if (t.worker_id() != options_.worker_id) return;
             if (auto bad = dds::check(t); !bad.empty()) {
                 // Answered at once, so sample_db counts a failed attempt instead of waiting.
@@ -33,7 +32,14 @@ MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backe
             if (!held_.insert(t.task_id()).second) return;  // a re-sent task it already holds
             queue_.push_back(t);
             cv_.notify_one();
-        }));
+        };
+    // Filtered by assignee: sample_db sends a task only to its worker, not to all of them.
+    subscriptions_.push_back(options_.filter_tasks
+                                 ? participant.reader_where<v1::EvaluationTaskPubSubType>(
+                                       dds::topics::kEvaluationTask, dds::TopicQos::kReliable,
+                                       /* EvaluationTask::worker_id */ 1, options_.worker_id, on_task)
+                                 : participant.reader<v1::EvaluationTaskPubSubType>(
+                                       dds::topics::kEvaluationTask, dds::TopicQos::kReliable, on_task));
     for (int i = 0; i < options_.slots; ++i) threads_.emplace_back([this] { task_loop(); });
     threads_.emplace_back([this] { heartbeat_loop(); });
 }

@@ -22,6 +22,7 @@ struct WorkerOptions {
     std::string worker_id;      // empty: generated
     int slots = 1;              // tasks run at once
     double heartbeat_s = 0.5;   // sample_db re-assigns after its lease (default 10 s) of silence
+    bool filter_tasks = true;   // subscribe to its own tasks only (false: every task, what dispatch_bench compares)
 };
 
 class MatcherWorker {

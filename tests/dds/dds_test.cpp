@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <condition_variable>
 #include <filesystem>
@@ -155,6 +156,52 @@ TEST(Participant, ReliableRequestsArriveInOrderBetweenParticipants) {
     }
     ASSERT_TRUE(wait_until([&] { std::lock_guard<std::mutex> l(m); return got.size() == 200; }, 10s));
     for (int i = 0; i < 200; ++i) EXPECT_EQ(got[static_cast<std::size_t>(i)], "req-" + std::to_string(i));
+}
+
+// Tasks go only to their assignee's filtered reader (EvaluationTask's worker_id is leading
+// string member 1), in order, reliably; an unfiltered reader still gets every task.
+TEST(Participant, FilteredReaderGetsOnlyItsWorkersTasks) {
+    const int domain = random_domain();
+    Participant db({domain, "", "maptune_loopback", "db"});
+    Participant p1({domain, "", "maptune_loopback", "p1"});
+    Participant p2({domain, "", "maptune_loopback", "p2"});
+    Participant all({domain, "", "maptune_loopback", "all"});
+    const std::vector<std::string> ids = {"w-1", "w'2 \"quoted\" ü", "w-3"};  // w-3 has no reader
+    std::mutex m;
+    std::map<std::string, std::vector<std::string>> got;  // reader -> task ids
+    auto keep = [&](const std::string& reader) {
+        return [&, reader](const v1::EvaluationTask& t) {
+            std::lock_guard<std::mutex> lock(m);
+            got[reader].push_back(t.task_id() + "@" + t.worker_id());
+        };
+    };
+    const auto s1 = p1.reader_where<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, 1, ids[0], keep("r1"));
+    const auto s2 = p2.reader_where<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, 1, ids[1], keep("r2"));
+    const auto s3 = all.reader<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, keep("all"));
+    auto w = db.writer<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable);
+    ASSERT_TRUE(w.wait_for_readers(3, 10s)) << "no discovery on loopback, domain " << domain;
+    std::map<std::string, std::vector<std::string>> want;
+    for (int i = 0; i < 90; ++i) {
+        v1::EvaluationTask t;
+        t.task_id("task-" + std::to_string(i));
+        const std::string& id = ids[static_cast<std::size_t>(i) % ids.size()];
+        t.worker_id(id);
+        t.pair_ids().push_back("run00/submap000:run00/submap001");
+        ASSERT_TRUE(w.write(t)) << "task " << i;
+        want["all"].push_back(t.task_id() + "@" + id);
+        if (id == ids[0]) want["r1"].push_back(t.task_id() + "@" + id);
+        if (id == ids[1]) want["r2"].push_back(t.task_id() + "@" + id);
+    }
+    ASSERT_TRUE(wait_until([&] { std::lock_guard<std::mutex> l(m); return got["all"].size() == 90; }, 10s));
+    ASSERT_TRUE(wait_until([&] {
+        std::lock_guard<std::mutex> l(m);
+        return got["r1"].size() >= 30 && got["r2"].size() >= 30;
+    }, 10s));
+    std::this_thread::sleep_for(200ms);  // room for a sample that should not come
+    std::lock_guard<std::mutex> l(m);
+    EXPECT_EQ(got["r1"], want["r1"]);
+    EXPECT_EQ(got["r2"], want["r2"]);
+    EXPECT_EQ(got["all"], want["all"]);
 }
 
 // A service's callbacks must never run once it is being destroyed, though its participant
