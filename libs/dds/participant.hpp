@@ -170,15 +170,7 @@ public:
     template <class PubSubType>
     [[nodiscard]] Subscription reader(const std::string& topic, TopicQos qos,
                                       std::function<void(const typename PubSubType::type&)> on_sample) {
-        auto* t = topic_for(topic, new PubSubType());
-        const auto rq = reader_qos(qos);
-        auto gate = std::make_shared<ReaderGate>();
-        auto listener = std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample), gate);
-        auto* r = subscriber_->create_datareader(t, rq, listener.get());
-        if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'" + denied_hint("read"));
-        std::lock_guard<std::mutex> lock(mutex_);
-        listeners_.push_back(std::move(listener));
-        return Subscription(std::move(gate));
+        return reader_on<typename PubSubType::type>(topic_for(topic, new PubSubType()), qos, std::move(on_sample));
     }
 
     // A reader that gets only the samples whose `member`-th leading string member (0-based,
@@ -191,16 +183,8 @@ public:
     [[nodiscard]] Subscription reader_where(const std::string& topic, TopicQos qos, int member,
                                             const std::string& value,
                                             std::function<void(const typename PubSubType::type&)> on_sample) {
-        auto* t = topic_for(topic, new PubSubType());
-        auto* described = filtered_topic(t, member, value);
-        const auto rq = reader_qos(qos);
-        auto gate = std::make_shared<ReaderGate>();
-        auto listener = std::make_unique<ReaderListener<typename PubSubType::type>>(std::move(on_sample), gate);
-        auto* r = subscriber_->create_datareader(described, rq, listener.get());
-        if (r == nullptr) throw DdsError("cannot create a reader on topic '" + topic + "'" + denied_hint("read"));
-        std::lock_guard<std::mutex> lock(mutex_);
-        listeners_.push_back(std::move(listener));
-        return Subscription(std::move(gate));
+        return reader_on<typename PubSubType::type>(filtered_topic(topic_for(topic, new PubSubType()), member, value),
+                                                    qos, std::move(on_sample));
     }
 
     // The QoS of qos_profile(qos, …); throws DdsError when the profile is missing.
@@ -208,6 +192,21 @@ public:
     eprosima::fastdds::dds::DataReaderQos reader_qos(TopicQos qos) const;
 
 private:
+    template <class T>
+    Subscription reader_on(eprosima::fastdds::dds::TopicDescription* topic, TopicQos qos,
+                           std::function<void(const T&)> on_sample) {
+        const auto rq = reader_qos(qos);
+        auto gate = std::make_shared<ReaderGate>();
+        auto listener = std::make_unique<ReaderListener<T>>(std::move(on_sample), gate);
+        auto* r = subscriber_->create_datareader(topic, rq, listener.get());
+        if (r == nullptr) {
+            throw DdsError("cannot create a reader on topic '" + topic->get_name() + "'" + denied_hint("read"));
+        }
+        std::lock_guard<std::mutex> lock(mutex_);
+        listeners_.push_back(std::move(listener));
+        return Subscription(std::move(gate));
+    }
+
     // Registers the type on first use (taking ownership of `type`) and returns the topic.
     eprosima::fastdds::dds::Topic* topic_for(const std::string& topic,
                                             eprosima::fastdds::dds::TopicDataType* type);
