@@ -507,12 +507,29 @@ TEST_F(ServicesTest, MalformedMessagesOfEveryKindAreRefusedAndServicesKeepServin
     files.write(fr);
 
     // Every service still answers real work.
-    requests.write(request("good"));
-    ASSERT_TRUE(poll([&] {
+    const auto good = request("good");
+    requests.write(good);
+    // Our writers matched the services' readers above, but a service's answer goes out on its
+    // own writer, which may match our reader later (volatile: an answer before that is lost;
+    // seen once under load). So whatever is unanswered is sent again every 3 s: the services
+    // answer each copy alike and log each reason once.
+    bool answered = false;
+    for (int round = 0; round < 30 && !answered; ++round) {
+        answered = poll([&] {
+            std::lock_guard<std::mutex> lock(m);
+            return replies.count("good") && replies.count("long-view") && replies.count("many-params") &&
+                   results.count("nan-task") && results.count("no-pairs") && chunks.count("raw/long-path");
+        }, 3);
+        if (answered) break;
         std::lock_guard<std::mutex> lock(m);
-        return replies.count("good") && replies.count("long-view") && replies.count("many-params") &&
-               results.count("nan-task") && results.count("no-pairs") && chunks.count("raw/long-path");
-    }, 90)) << db_p.output() << w1.output();
+        if (!replies.count("good")) requests.write(good);
+        if (!replies.count("long-view")) requests.write(r1);
+        if (!replies.count("many-params")) requests.write(r2);
+        if (!results.count("nan-task")) tasks.write(t1);
+        if (!results.count("no-pairs")) tasks.write(t2);
+        if (!chunks.count("raw/long-path")) files.write(fr);
+    }
+    ASSERT_TRUE(answered) << db_p.output() << w1.output();
     std::lock_guard<std::mutex> lock(m);
     EXPECT_TRUE(replies["good"].ok()) << replies["good"].error();
     EXPECT_EQ(replies["good"].pairs().size(), 4u);
