@@ -22,6 +22,9 @@ inline constexpr const char* kFileRequest = "maptune/v1/file_request";
 inline constexpr const char* kFileChunk = "maptune/v1/file_chunk";
 inline constexpr const char* kBestSoFar = "maptune/v1/best_so_far";
 inline constexpr const char* kOptimizerStatus = "maptune/v1/optimizer_status";
+// EvaluationTask's worker_id is its second string member (idl/maptune.idl): what workers'
+// task filters compare (Participant::reader_where; Participant.FilteredReaderGetsOnlyItsWorkersTasks).
+inline constexpr int kTaskAssigneeMember = 1;
 }  // namespace topics
 
 std::vector<msg::v1::NamedValue> to_msg(const params::ParameterSet& set);

@@ -16,28 +16,28 @@ MatcherWorker::MatcherWorker(dds::Participant& participant, WorkerBackend& backe
     // Heartbeats are reliable too: a lost one must not look like a dead worker.
     status_ = participant.writer<v1::WorkerStatusPubSubType>(dds::topics::kWorkerStatus, dds::TopicQos::kLatched);
     auto on_task = [this](const v1::EvaluationTask& t) {
-            if (t.worker_id() != options_.worker_id) return;
-            if (auto bad = dds::check(t); !bad.empty()) {
-                // Answered at once, so sample_db counts a failed attempt instead of waiting.
-                refusals_.refused("evaluation_task", "", bad);
-                v1::TaskResult r;
-                if (t.task_id().size() <= dds::MessageLimits::kId) r.task_id(t.task_id());
-                r.worker_id(options_.worker_id);
-                r.ok(false);
-                r.error("invalid task: " + bad);
-                results_.write(r);
-                return;
-            }
-            std::lock_guard<std::mutex> lock(mutex_);
-            if (!held_.insert(t.task_id()).second) return;  // a re-sent task it already holds
-            queue_.push_back(t);
-            cv_.notify_one();
-        };
+        if (t.worker_id() != options_.worker_id) return;
+        if (auto bad = dds::check(t); !bad.empty()) {
+            // Answered at once, so sample_db counts a failed attempt instead of waiting.
+            refusals_.refused("evaluation_task", "", bad);
+            v1::TaskResult r;
+            if (t.task_id().size() <= dds::MessageLimits::kId) r.task_id(t.task_id());
+            r.worker_id(options_.worker_id);
+            r.ok(false);
+            r.error("invalid task: " + bad);
+            results_.write(r);
+            return;
+        }
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!held_.insert(t.task_id()).second) return;  // a re-sent task it already holds
+        queue_.push_back(t);
+        cv_.notify_one();
+    };
     // Filtered by assignee: sample_db sends a task only to its worker, not to all of them.
     subscriptions_.push_back(options_.filter_tasks
                                  ? participant.reader_where<v1::EvaluationTaskPubSubType>(
                                        dds::topics::kEvaluationTask, dds::TopicQos::kReliable,
-                                       /* EvaluationTask::worker_id */ 1, options_.worker_id, on_task)
+                                       dds::topics::kTaskAssigneeMember, options_.worker_id, on_task)
                                  : participant.reader<v1::EvaluationTaskPubSubType>(
                                        dds::topics::kEvaluationTask, dds::TopicQos::kReliable, on_task));
     for (int i = 0; i < options_.slots; ++i) threads_.emplace_back([this] { task_loop(); });

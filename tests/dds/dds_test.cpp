@@ -19,6 +19,7 @@
 
 #include "test_domain.hpp"
 #include "wait_until.hpp"
+#include "dds/convert.hpp"
 #include "dds/participant.hpp"
 #include "fastdds_shm.hpp"
 #include "maptunePubSubTypes.h"
@@ -158,8 +159,8 @@ TEST(Participant, ReliableRequestsArriveInOrderBetweenParticipants) {
     for (int i = 0; i < 200; ++i) EXPECT_EQ(got[static_cast<std::size_t>(i)], "req-" + std::to_string(i));
 }
 
-// Tasks go only to their assignee's filtered reader (EvaluationTask's worker_id is leading
-// string member 1), in order, reliably; an unfiltered reader still gets every task.
+// Tasks go only to their assignee's filtered reader (kTaskAssigneeMember must name
+// EvaluationTask's worker_id), in order, reliably; an unfiltered reader still gets every task.
 TEST(Participant, FilteredReaderGetsOnlyItsWorkersTasks) {
     const int domain = random_domain();
     Participant db({domain, "", "maptune_loopback", "db"});
@@ -175,8 +176,8 @@ TEST(Participant, FilteredReaderGetsOnlyItsWorkersTasks) {
             got[reader].push_back(t.task_id() + "@" + t.worker_id());
         };
     };
-    const auto s1 = p1.reader_where<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, 1, ids[0], keep("r1"));
-    const auto s2 = p2.reader_where<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, 1, ids[1], keep("r2"));
+    const auto s1 = p1.reader_where<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, topics::kTaskAssigneeMember, ids[0], keep("r1"));
+    const auto s2 = p2.reader_where<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, topics::kTaskAssigneeMember, ids[1], keep("r2"));
     const auto s3 = all.reader<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable, keep("all"));
     auto w = db.writer<v1::EvaluationTaskPubSubType>("t/tasks", TopicQos::kReliable);
     ASSERT_TRUE(w.wait_for_readers(3, 10s)) << "no discovery on loopback, domain " << domain;
