@@ -49,12 +49,12 @@ struct ParticipantOptions {
 // DdsError naming the first missing file. Empty when security is off.
 std::vector<std::pair<std::string, std::string>> security_properties(const ParticipantOptions& options);
 
-// Delivery semantics of a topic: each is a pair of writer/reader profiles in
-// configs/dds/qos.xml (compiled in; the wire contract in docs/plugin-matcher.md).
 // Readers with a content filter a writer evaluates for them (beyond that, it sends them every
 // sample and they filter on receipt). Fast DDS's default is 32.
 inline constexpr int kMaxReaderFilters = 1024;
 
+// Delivery semantics of a topic: each is a pair of writer/reader profiles in
+// configs/dds/qos.xml (compiled in; the wire contract in docs/plugin-matcher.md).
 enum class TopicQos {
     kReliable,  // reliable, volatile, keep last 1000: requests, tasks, results
     kLatched,   // reliable, transient-local, keep last 1 per key: late joiners get the latest
