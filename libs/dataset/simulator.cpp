@@ -108,6 +108,7 @@ std::map<std::string, SimField> sim_fields(SimConfig& c) {
         {"world_size", r(c.world_size, 2, 1000)},
         {"rocks", i(c.rocks, 0, 100000)},
         {"craters", i(c.craters, 0, 100000)},
+        {"worlds", i(c.worlds, 1, 1000)},
         {"rock_colour_variation", r(c.rock_colour_variation, 0, 1)},
         {"floor_tile_contrast", r(c.floor_tile_contrast, 0, 1)},
         {"rock_facets", i(c.rock_facets, 0, 64)},
@@ -195,15 +196,26 @@ std::string set_sim_option(SimConfig& c, const std::string& key, const std::stri
     return "";
 }
 
-std::vector<std::string> sim_options(const SimConfig& config) {
+namespace {
+
+// Every setting as KEY=VALUE; `every` = false leaves out settings added after datasets were
+// published while they have their default, so those datasets' meta and ids stay as they were.
+std::vector<std::string> sim_options(const SimConfig& config, bool every) {
     SimConfig c = config;
     std::vector<std::string> out;
-    for (const auto& [k, f] : sim_fields(c)) out.push_back(k + "=" + format_number(f.real ? *f.real : *f.integer));
+    for (const auto& [k, f] : sim_fields(c)) {
+        if (!every && k == "worlds" && c.worlds == 1) continue;
+        out.push_back(k + "=" + format_number(f.real ? *f.real : *f.integer));
+    }
     std::string sweep;
     for (double a : c.pan_sweep_deg) sweep += (sweep.empty() ? "" : ",") + format_number(a);
     out.push_back("pan_sweep_deg=" + sweep);
     return out;
 }
+
+}  // namespace
+
+std::vector<std::string> sim_options(const SimConfig& config) { return sim_options(config, false); }
 
 std::string sim_settings_mismatch(const SimConfig& config, const std::map<std::string, std::string>& meta) {
     auto split = [](const std::vector<std::string>& options) {
@@ -214,8 +226,8 @@ std::string sim_settings_mismatch(const SimConfig& config, const std::map<std::s
         }
         return kv;
     };
-    std::map<std::string, std::string> wanted = split(sim_options(config));
-    std::map<std::string, std::string> had = split(sim_options(SimConfig{}));
+    std::map<std::string, std::string> wanted = split(sim_options(config, true));
+    std::map<std::string, std::string> had = split(sim_options(SimConfig{}, true));
     if (const auto it = meta.find("sim"); it != meta.end()) {
         std::vector<std::string> options;
         std::istringstream in(it->second);
@@ -1047,18 +1059,28 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
     rw.finish();
 }
 
+// The seed of the world run `run` drives in (SimConfig::worlds).
+std::uint64_t world_seed(const SimConfig& config, int run) {
+    const int w = run % std::max(1, config.worlds);
+    return w == 0 ? config.seed : mix(config.seed, 0x53495445ull + static_cast<std::uint64_t>(w));
+}
+
 }  // namespace
 
 HeightMapImage world_height_map(const SimConfig& config, double resolution) {
     return World(config, config.seed).height_map(resolution);
 }
 
+
 std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overwrite,
                              const std::function<void(const GenerateProgress&)>& progress) {
     if (c.runs < 1 || c.runs > 1000) throw std::invalid_argument("--runs must be in [1, 1000]");
     if (c.submaps < 1 || c.submaps > 1000) throw std::invalid_argument("--submaps must be in [1, 1000]");
     if (c.pan_sweep_deg.empty()) throw std::invalid_argument("pan sweep must not be empty");
-    const World world(c, c.seed);
+    if (c.worlds < 1 || c.worlds > c.runs) throw std::invalid_argument("worlds must be in [1, runs]");
+    std::vector<World> worlds;
+    worlds.reserve(static_cast<std::size_t>(c.worlds));
+    for (int w = 0; w < c.worlds; ++w) worlds.emplace_back(c, world_seed(c, w));
     DatasetWriter writer(out, c.world, "simulator", c.voxel_m, std::max(0.2, 4 * c.voxel_m), overwrite);
     writer.set_meta("world", c.world);
     writer.set_meta("seed", std::to_string(c.seed));
@@ -1081,7 +1103,7 @@ std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overw
         for (int r = next++; r < c.runs; r = next++) {
             try {
                 RunWriter rw = writer.run(r);
-                simulate_run(c, world, r, rw);
+                simulate_run(c, worlds[static_cast<std::size_t>(r % c.worlds)], r, rw);
                 std::lock_guard<std::mutex> lock(progress_mutex);
                 ++done;
                 // May throw to cancel (SIGINT): the writer then removes its temporary directory.

@@ -20,6 +20,10 @@ struct SimConfig {
     double world_size = 8.0;        // side of the square world [m]
     int rocks = 0;                  // 0 = world default (lab: 15..30, moon: ~90)
     int craters = 60;               // moon only
+    // Sites: run r drives in world r mod `worlds` (world 0 is the seed's own, the others are
+    // drawn from the seed), as a robot team records at several sites; views pair submaps
+    // within a run only, so a tuning view then spans several worlds. 1 = every run in one world.
+    int worlds = 1;
     // Lab appearance. Per-rock colour: 1 = each rock its own brown/red tint, 0 = all rocks of
     // one material (artificial rocks cast from one mix). Floor: 1 = carpet tiles with per-tile
     // tint and dark seams, 0 = a uniform floor (speckle only).

@@ -15,11 +15,16 @@ using params::ConfigError;
 
 namespace {
 
-dataset::SimConfig generate_config(const experiment::GenerateSpec& generate) {
+dataset::SimConfig generate_config(const std::string& dir, const experiment::GenerateSpec& generate) {
     dataset::SimConfig config = dataset::sim_preset(generate.preset);
     if (generate.runs > 0) config.runs = generate.runs;
     if (generate.submaps > 0) config.submaps = generate.submaps;
     config.seed = generate.seed;
+    for (const auto& s : generate.sim) {
+        if (const std::string error = dataset::set_sim_option(config, s.key, s.value); !error.empty()) {
+            throw ConfigError((s.where.empty() ? dir + ": sim." + s.key : s.where) + ": " + error);
+        }
+    }
     return config;
 }
 
@@ -33,7 +38,7 @@ void ensure_dataset(const std::string& dir, const std::optional<experiment::Gene
         if (!generate) return;
         const dataset::Dataset existing = dataset::Dataset::open(dir);
         if (existing.manifest().source != "simulator") return;
-        const std::string why = dataset::sim_settings_mismatch(generate_config(*generate), existing.manifest().meta);
+        const std::string why = dataset::sim_settings_mismatch(generate_config(dir, *generate), existing.manifest().meta);
         if (!why.empty()) {
             throw ConfigError(dir + ": not what dataset.generate (preset " + generate->preset + ") makes — " + why +
                               "; remove the directory to regenerate it, or drop the generate section to use it as it is");
@@ -43,7 +48,7 @@ void ensure_dataset(const std::string& dir, const std::optional<experiment::Gene
     if (!generate) {
         throw ConfigError(dir + ": no dataset there, and no dataset.generate section to make one");
     }
-    const dataset::SimConfig config = generate_config(*generate);
+    const dataset::SimConfig config = generate_config(dir, *generate);
     if (log) {
         log("generating dataset " + dir + " (" + generate->preset + ", " + std::to_string(config.runs) +
             " runs x " + std::to_string(config.submaps) + " submaps, seed " + std::to_string(config.seed) + ")");

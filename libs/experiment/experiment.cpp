@@ -53,7 +53,7 @@ struct DatasetSection {
     std::optional<GenerateSpec> generate;
 };
 
-// dataset: a directory, or {dir, generate: {preset, runs, submaps, seed}}.
+// dataset: a directory, or {dir, generate: {preset, runs, submaps, seed, sim: {KEY: VALUE}}}.
 DatasetSection read_dataset_section(const YAML::Node& n, const YamlPath& p, const fs::path& base) {
     DatasetSection out;
     if (n.IsScalar()) {
@@ -66,7 +66,7 @@ DatasetSection read_dataset_section(const YAML::Node& n, const YamlPath& p, cons
     if (n["generate"].IsDefined()) {
         const YamlPath g = p.child("generate");
         const YAML::Node gn = n["generate"];
-        params::check_keys(gn, g, {"preset", "runs", "submaps", "seed"});
+        params::check_keys(gn, g, {"preset", "runs", "submaps", "seed", "sim"});
         if (!gn["preset"].IsDefined()) g.fail(gn, "missing key 'preset'");
         GenerateSpec spec;
         spec.preset = read_choice(gn["preset"], g.child("preset"), {"lab", "moon", "lab-tiny", "moon-tiny"});
@@ -74,6 +74,17 @@ DatasetSection read_dataset_section(const YAML::Node& n, const YamlPath& p, cons
         if (gn["submaps"].IsDefined()) spec.submaps = read_int(gn["submaps"], g.child("submaps"), 2, 10000);
         if (gn["seed"].IsDefined()) {
             spec.seed = static_cast<std::uint64_t>(read_int(gn["seed"], g.child("seed"), 0, 1 << 30));
+        }
+        if (const YAML::Node sn = gn["sim"]; sn.IsDefined()) {
+            // Names and ranges are checked where the dataset is made (SimConfig lives there).
+            const YamlPath sp = g.child("sim");
+            params::check_unique_keys(sn, sp);
+            for (const auto& kv : sn) {
+                const std::string key = kv.first.as<std::string>();
+                if (!kv.second.IsScalar()) sp.child(key).fail(kv.second, "expected a number");
+                spec.sim.push_back({key, kv.second.Scalar(),
+                                    sp.file + ":" + std::to_string(kv.second.Mark().line + 1) + ": " + sp.path + "." + key});
+            }
         }
         out.generate = spec;
     }

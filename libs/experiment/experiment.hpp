@@ -20,6 +20,12 @@ struct GenerateSpec {
     int runs = 0;                  // 0 = preset's
     int submaps = 0;               // 0 = preset's
     std::uint64_t seed = 1;
+    // Simulator settings on top of the preset (`dataset generate --sim KEY=VALUE`), in order;
+    // checked where the dataset is made, naming `where` (file:line: key).
+    struct SimSetting {
+        std::string key, value, where;
+    };
+    std::vector<SimSetting> sim;
 };
 
 // A held-out dataset view the tuned sets are validated on (`validate:`, issue 11): the

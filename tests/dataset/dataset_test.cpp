@@ -181,6 +181,31 @@ TEST(SimulatorTest, ExposureChangesColoursButNotGeometry) {
     EXPECT_EQ(off.obstacles.size(), on.obstacles.size());
 }
 
+// Several sites: run 0 stays in the seed's world, run 1 drives the same path noise in another
+// world; one world writes no `worlds` setting (datasets made before it keep their ids).
+TEST(SimulatorTest, WorldsPutRunsInDifferentWorlds) {
+    SimConfig c = sim_preset("lab-tiny");
+    c.runs = 2;
+    c.submaps = 2;
+    generate_dataset(c, temp_root() / "worlds1");
+    c.worlds = 2;
+    generate_dataset(c, temp_root() / "worlds2");
+    const auto one = all_files(temp_root() / "worlds1"), two = all_files(temp_root() / "worlds2");
+    for (const std::string f : {"run00/submap000.pcd", "run00/submap001.pcd", "run00/gt.tum"}) {
+        EXPECT_EQ(one.at(f), two.at(f)) << f;
+    }
+    EXPECT_NE(one.at("run01/submap000.pcd"), two.at("run01/submap000.pcd"));
+    const auto meta1 = Dataset::open(temp_root() / "worlds1").manifest().meta;
+    const auto meta2 = Dataset::open(temp_root() / "worlds2").manifest().meta;
+    EXPECT_EQ(meta1.at("sim").find("worlds="), std::string::npos);
+    EXPECT_NE(meta2.at("sim").find("worlds=2"), std::string::npos);
+    EXPECT_EQ(sim_settings_mismatch(c, meta1), "worlds: the dataset has 1, the settings ask for 2");
+    EXPECT_EQ(sim_settings_mismatch(c, meta2), "");
+    c.worlds = 3;
+    EXPECT_NE(error_of([&] { generate_dataset(c, temp_root() / "worlds3"); }).find("worlds must be in [1, runs]"),
+              std::string::npos);
+}
+
 // The moon's low sun casts shadows: the same points, some of them darker (only the ambient
 // term lights them), none brighter.
 TEST(SimulatorTest, CastShadowsDarkenSomePointsAndMoveNone) {

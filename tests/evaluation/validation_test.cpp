@@ -123,7 +123,7 @@ TEST_F(ValidationTest, ErrorsNameWhatIsMissing) {
 // another seed (or an older preset) is refused, naming the setting, and left untouched.
 TEST_F(ValidationTest, AnExistingDatasetOfOtherSettingsIsRefused) {
     const std::string dir = (dir_ / "held").string();
-    experiment::GenerateSpec spec{"lab-tiny", 1, 2, 7};
+    experiment::GenerateSpec spec{"lab-tiny", 1, 2, 7, {}};
     ensure_dataset(dir, spec, {});
     const std::string id = dataset::Dataset::open(dir).manifest().id;
     ensure_dataset(dir, spec, {});  // the same settings: used as it is
@@ -136,13 +136,31 @@ TEST_F(ValidationTest, AnExistingDatasetOfOtherSettingsIsRefused) {
             << err.what();
         EXPECT_NE(std::string(err.what()).find(dir), std::string::npos) << err.what();
     }
-    spec = {"lab", 1, 2, 7};  // another preset: many settings differ
+    spec = {"lab", 1, 2, 7, {}};  // another preset: many settings differ
     try {
         ensure_dataset(dir, spec, {});
         FAIL();
     } catch (const params::ConfigError& err) {
         EXPECT_NE(std::string(err.what()).find("more)"), std::string::npos) << err.what();
     }
+    spec = {"lab-tiny", 1, 2, 7, {{"worlds", "2", ""}}};  // a simulator setting on top of the preset
+    try {
+        ensure_dataset(dir, spec, {});
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("worlds: the dataset has 1, the settings ask for 2"), std::string::npos)
+            << err.what();
+    }
+    spec.sim = {{"wolds", "2", "exp.yaml:9: dataset.generate.sim.wolds"}};
+    try {
+        ensure_dataset((dir_ / "other").string(), spec, {});
+        FAIL();
+    } catch (const params::ConfigError& err) {
+        EXPECT_NE(std::string(err.what()).find("exp.yaml:9: dataset.generate.sim.wolds: --sim: unknown simulator setting 'wolds'"),
+                  std::string::npos)
+            << err.what();
+    }
+    EXPECT_FALSE(fs::exists(dir_ / "other"));
     EXPECT_EQ(dataset::Dataset::open(dir).manifest().id, id);
 }
 

@@ -45,7 +45,7 @@ name: t
 space: space.yaml
 optimize: [t_K, r_D, n_TF]
 fixed: {v_K: 0.2}
-dataset: {dir: data/lab, generate: {preset: lab-tiny, runs: 2, submaps: 5, seed: 3}}
+dataset: {dir: data/lab, generate: {preset: lab-tiny, runs: 2, submaps: 5, seed: 3, sim: {worlds: 2, voxel_m: 0.05}}}
 view: complete
 reference: odometry
 measure: {e_star: 0.3, m_star: 12, w_v: 0.4}
@@ -63,6 +63,10 @@ workers: 3
     ASSERT_TRUE(e.generate.has_value());
     EXPECT_EQ(e.generate->preset, "lab-tiny");
     EXPECT_EQ(e.generate->runs, 2);
+    ASSERT_EQ(e.generate->sim.size(), 2u);
+    EXPECT_EQ(e.generate->sim[0].key, "worlds");
+    EXPECT_EQ(e.generate->sim[1].value, "0.05");
+    EXPECT_NE(e.generate->sim[1].where.find(":6: dataset.generate.sim.voxel_m"), std::string::npos) << e.generate->sim[1].where;
     EXPECT_EQ(e.view, "complete");
     EXPECT_EQ(e.reference, "odometry");
     EXPECT_DOUBLE_EQ(e.e_star, 0.3);
@@ -201,6 +205,10 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "fixed: {[r_N]: 0.2}\n", "expected a plain name as key");
     expect_error(head + "validate: [{dataset: a/x}, {dataset: b/x}]\n", "label 'x' used twice");
     expect_error(head + "validate: [{dataset: a, reference: lidar}]\n", "validate[0].reference: expected one of");
+    expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: lab, sim: [worlds]}}}]\n",
+                 "validate[0].dataset.generate.sim: expected a mapping");
+    expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: lab, sim: {worlds: [2]}}}}]\n",
+                 "validate[0].dataset.generate.sim.worlds: expected a number");
     expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: mars}}}]\n",
                  "validate[0].dataset.generate.preset: expected one of");
     expect_error("name: x\ndataset: ds\n", "missing key 'space'");
