@@ -111,7 +111,21 @@ wait_finished() {  # wait_finished TIMEOUT_S
   return 1
 }
 
-domain() { echo $(( (RANDOM % 200) + 1 )); }
+# A domain no other maptune process holds, leased as libs/dds/domain_lease.hpp does (an flock
+# on <tmp>/maptune-dds-domains/N.lock, held by this shell until it exits): a test or embedded run
+# on the same domain would answer this run's requests. SRANDOM leaves the kill schedule alone.
+lease_domain() {
+  local dir="${TMPDIR:-/tmp}/maptune-dds-domains" d fd
+  mkdir -p "$dir"
+  for _ in $(seq 1000); do
+    d=$(( (SRANDOM % 200) + 1 ))
+    exec {fd}>>"$dir/$d.lock"
+    if flock -n "$fd"; then DOMAIN=$d; return 0; fi
+    exec {fd}>&-
+  done
+  echo "fault-test: no free DDS domain in 1..200" >&2
+  exit 1
+}
 
 echo "fault-test: work directory $WORK; $KILLS kills, seed $SEED, $EVALS evaluations, DDS profile $MAPTUNE_DDS_PROFILE"
 "$CLI" dataset generate --preset lab-tiny --runs 2 --submaps 5 --seed "$SEED" --out "$WORK/lab" >/dev/null 2>&1
@@ -130,14 +144,16 @@ matcher: {settings: {icp_max_iterations: 10}}
 EOF
 
 T0=$SECONDS
-launch_run reference "$(domain)"
+lease_domain
+launch_run reference "$DOMAIN"
 wait_finished 1800
 stop_all
 REF_S=$((SECONDS - T0))
 echo "fault-test: reference run finished in ${REF_S} s"
 
 T1=$SECONDS
-launch_run faults "$(domain)"
+lease_domain
+launch_run faults "$DOMAIN"
 declare -A KILLED=([dataset_server]=0 [sample_db]=0 [worker]=0 [optimizer]=0)
 SERVICES=(dataset_server sample_db worker optimizer)
 done_kills=0

@@ -9,11 +9,11 @@
 #include <filesystem>
 #include <iostream>
 #include <mutex>
-#include <random>
 
 #include "dataset/simulator.hpp"
 #include "dataset_server.hpp"
 #include "dds/convert.hpp"
+#include "dds/domain_lease.hpp"
 #include "matcher_worker.hpp"
 #include "runtime.hpp"
 #include "sample_db.hpp"
@@ -95,8 +95,7 @@ int main(int argc, char** argv) {
         dataset::generate_dataset(c, ds_dir);
     }
     const auto space = params::ParameterSpace::load(std::string(MAPTUNE_SOURCE_DIR_BENCH) + "/configs/spaces/lru_matcher.yaml");
-    std::random_device rd;
-    const int domain = std::uniform_int_distribution<int>(1, 200)(rd);
+    const int domain = maptune::dds::lease_random_domain();
     auto participant = [&](const std::string& name, const std::string& role) {
         maptune::dds::ParticipantOptions po{domain, "", profile, name};
         po.security_dir = security;

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <iostream>
-#include <random>
 
+#include "dds/domain_lease.hpp"
 #include "evaluation/validation.hpp"
 #include "matcher_worker.hpp"
 #include "params/export.hpp"
@@ -92,8 +92,10 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
     const std::string db = options.db_path.empty() ? (root / "observations.db").string() : options.db_path;
     int domain = options.domain_id;
     if (domain < 0) {
-        std::random_device rd;
-        domain = std::uniform_int_distribution<int>(1, 200)(rd);
+        domain = dds::lease_random_domain();
+    } else if (!dds::lease_domain(domain)) {
+        std::cerr << "maptune run: warning: another maptune process on this host holds DDS domain " << domain
+                  << "; its services would answer this run's requests\n";
     }
     const std::string matcher_id = options.analytic ? "analytic" : e.matcher_id;
     const bool reference = matcher_id == evaluation::kMatcherId;

@@ -17,7 +17,7 @@ struct EmbeddedOptions {
     std::filesystem::path run_dir;   // empty: runs/<experiment>-<UTC time>
     std::string db_path;             // empty: <run_dir>/observations.db
     int workers = 0;                 // 0: the experiment's
-    int domain_id = -1;              // -1: random in [1, 200]
+    int domain_id = -1;              // -1: random in [1, 200], one no other maptune process holds
     bool analytic = false;           // the analytic test matcher instead of the PCL pipeline
     // Start no workers: wait for workers started apart (plug-ins, other machines) of the
     // experiment's matcher.id on this domain, up to `wait_s` for the first one.

@@ -61,7 +61,7 @@ void add_run_command(CLI::App& app, int& exit_code) {
                     "observation store shared across runs (default: <run-dir>/observations.db)");
     cmd->add_option("--workers", opt->workers, "matcher workers, 1..64 (default: the experiment's)")
         ->check(CLI::Range(1, 64));
-    cmd->add_option("--domain", opt->domain_id, "DDS domain id, 0..232 (default: random in 1..200)")
+    cmd->add_option("--domain", opt->domain_id, "DDS domain id, 0..232 (default: a random one in 1..200 that no other maptune process on this host holds)")
         ->check(CLI::Range(0, 232));
     services::add_dds_security_options(*cmd, opt->dds_security, nullptr);
     cmd->add_flag("--analytic", opt->analytic,

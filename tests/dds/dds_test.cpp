@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -20,6 +22,7 @@
 #include "test_domain.hpp"
 #include "wait_until.hpp"
 #include "dds/convert.hpp"
+#include "dds/domain_lease.hpp"
 #include "dds/participant.hpp"
 #include "fastdds_shm.hpp"
 #include "maptunePubSubTypes.h"
@@ -35,6 +38,31 @@ using namespace std::chrono_literals;
 int random_domain() { return test::reserve_domain(); }
 
 using test::wait_until;
+
+// Leases are host-wide: what this process holds another cannot take (the `flock` command, as
+// scripts/fault-test.sh takes them), a lease held elsewhere is refused, a full range throws.
+// Domains 201..206 lie outside every random range maptune uses.
+TEST(DomainLease, HeldDomainsAreNeverHandedOutTwice) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "maptune-dds-domains";
+    const int d = lease_random_domain(1, 200);
+    EXPECT_TRUE(lease_domain(d));  // already ours
+    const std::string probe = "flock -n -E 7 " + (dir / (std::to_string(d) + ".lock")).string() + " true";
+    EXPECT_EQ(WEXITSTATUS(std::system(probe.c_str())), 7) << probe;
+
+    // Another holder of 206 (a second open file description conflicts as another process would).
+    const int other = ::open((dir / "206.lock").c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0666);
+    ASSERT_GE(other, 0);
+    const bool held_elsewhere = ::flock(other, LOCK_EX | LOCK_NB) == 0;
+    if (held_elsewhere) {
+        EXPECT_FALSE(lease_domain(206));
+    }
+    std::set<int> got;
+    for (int i = 0; i < 5; ++i) got.insert(lease_random_domain(201, 205));
+    EXPECT_EQ(got, (std::set<int>{201, 202, 203, 204, 205}));
+    EXPECT_THROW(lease_random_domain(201, 205), std::runtime_error);
+    ::close(other);
+    EXPECT_TRUE(held_elsewhere) << "domain 206 was held by another process";
+}
 
 // Local addresses (host byte order) of the UDP sockets this process owns, from /proc.
 std::vector<uint32_t> own_udp_addresses() {
