@@ -119,7 +119,9 @@ void DatasetServer::answer(const v1::FileRequest& request) {
         return refuse("invalid request: " + bad);
     }
     const auto it = datasets_.find(request.dataset_id());
-    if (it == datasets_.end()) return refuse("unknown dataset '" + request.dataset_id() + "'");
+    // Not ours: stay silent. Another dataset_server on the domain may serve it (one server per
+    // dataset is a deployment), and a refusal would end the client's transfer before its chunks.
+    if (it == datasets_.end()) return;
     const auto& files = it->second.announcement.files();
     // Only announced files are served: no path leaves the dataset directory.
     const bool listed = std::any_of(files.begin(), files.end(),

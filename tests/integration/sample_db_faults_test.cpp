@@ -335,6 +335,36 @@ TEST(DatasetServerFaults, RefusesADatasetWhoseFilesChanged) {
     fs::remove_all(dir);
 }
 
+// One dataset_server per dataset on one domain: a server stays silent about datasets it does
+// not serve. It used to answer "unknown dataset", and a client whose request reached that
+// server first failed although the other server had the files.
+TEST(DatasetServerFaults, TwoServersOnOneDomainEachServeTheirOwn) {
+    const fs::path dir = test::make_temp_dir("maptune_dataset_servers_");
+    const auto shm_before = testing::fastdds_shm_files();
+    const fs::path a = test::generate_tiny_dataset(dir, "a", 1, 2, 4);
+    const fs::path b = test::generate_tiny_dataset(dir, "b", 1, 2, 5);
+    const int domain = test::reserve_domain();
+    {
+        dds::Participant pa({domain, "", "maptune_loopback", "server_a"});
+        dds::Participant pb({domain, "", "maptune_loopback", "server_b"});
+        services::DatasetServer sa(pa, {{a.string()}, 64 * 1024, "a"});
+        services::DatasetServer sb(pb, {{b.string()}, 64 * 1024, "b"});
+        dds::Participant pc({domain, "", "maptune_loopback", "client"});
+        services::DatasetMirror mirror(pc, dir / "cache", "client");
+        for (const fs::path& d : {a, b}) {
+            const std::string id = dataset::Dataset::open(d).manifest().id;
+            std::string error;
+            const auto ds = mirror.open(id, 60, &error);
+            ASSERT_TRUE(ds.has_value()) << d << ": " << error;
+            EXPECT_EQ(ds->manifest().id, id);
+        }
+        EXPECT_EQ(sa.requests_refused(), 0u);
+        EXPECT_EQ(sb.requests_refused(), 0u);
+    }
+    testing::remove_orphaned_fastdds_shm(shm_before);
+    fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace maptune
 
