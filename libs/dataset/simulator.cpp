@@ -1059,9 +1059,9 @@ void simulate_run(const SimConfig& c, const World& world, int run, RunWriter& rw
     rw.finish();
 }
 
-// The seed of the world run `run` drives in (SimConfig::worlds).
-std::uint64_t world_seed(const SimConfig& config, int run) {
-    const int w = run % std::max(1, config.worlds);
+// The seed of world w of SimConfig::worlds: world 0 is the seed's own (a dataset of one world
+// is what it was before the setting existed).
+std::uint64_t world_seed(const SimConfig& config, int w) {
     return w == 0 ? config.seed : mix(config.seed, 0x53495445ull + static_cast<std::uint64_t>(w));
 }
 
@@ -1070,7 +1070,6 @@ std::uint64_t world_seed(const SimConfig& config, int run) {
 HeightMapImage world_height_map(const SimConfig& config, double resolution) {
     return World(config, config.seed).height_map(resolution);
 }
-
 
 std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overwrite,
                              const std::function<void(const GenerateProgress&)>& progress) {
