@@ -1076,7 +1076,10 @@ std::string generate_dataset(const SimConfig& c, const fs::path& out, bool overw
     if (c.runs < 1 || c.runs > 1000) throw std::invalid_argument("--runs must be in [1, 1000]");
     if (c.submaps < 1 || c.submaps > 1000) throw std::invalid_argument("--submaps must be in [1, 1000]");
     if (c.pan_sweep_deg.empty()) throw std::invalid_argument("pan sweep must not be empty");
-    if (c.worlds < 1 || c.worlds > c.runs) throw std::invalid_argument("worlds must be in [1, runs]");
+    if (c.worlds < 1 || c.worlds > c.runs) {
+        throw std::invalid_argument("--sim worlds: " + std::to_string(c.worlds) + " for " + std::to_string(c.runs) +
+                                    " runs (worlds must be in [1, runs])");
+    }
     std::vector<World> worlds;
     worlds.reserve(static_cast<std::size_t>(c.worlds));
     for (int w = 0; w < c.worlds; ++w) worlds.emplace_back(c, world_seed(c, w));
