@@ -82,8 +82,7 @@ DatasetSection read_dataset_section(const YAML::Node& n, const YamlPath& p, cons
             for (const auto& kv : sn) {
                 const std::string key = kv.first.as<std::string>();
                 if (!kv.second.IsScalar()) sp.child(key).fail(kv.second, "expected a number");
-                spec.sim.push_back({key, kv.second.Scalar(),
-                                    sp.file + ":" + std::to_string(kv.second.Mark().line + 1) + ": " + sp.path + "." + key});
+                spec.sim.push_back({key, kv.second.Scalar(), sp.child(key).where(kv.second)});
             }
         }
         out.generate = spec;
@@ -335,9 +334,7 @@ Experiment load_experiment(const std::string& file) {
                 const std::string key = kv.first.as<std::string>();
                 const YamlPath kp = sp.child(key);
                 if (!kv.second.IsScalar()) kp.fail(kv.second, "expected a value (number, true/false or a name)");
-                e.matcher_settings.push_back({key, kv.second.as<std::string>(),
-                                              file + ":" + std::to_string(kv.second.Mark().line + 1) + ": " +
-                                                  "matcher.settings." + key});
+                e.matcher_settings.push_back({key, kv.second.as<std::string>(), kp.where(kv.second)});
             }
         }
         if (n["threads"].IsDefined()) e.matcher_threads = read_int(n["threads"], p.child("threads"), 0, 256);

@@ -15,12 +15,16 @@ YamlPath YamlPath::index(std::size_t i) const {
     return {file, path + "[" + std::to_string(i) + "]"};
 }
 
-void YamlPath::fail(const YAML::Node& node, const std::string& what) const {
+std::string YamlPath::where(const YAML::Node& node) const {
     std::ostringstream msg;
     msg << file;
     if (node.IsDefined() && node.Mark().line >= 0) msg << ":" << node.Mark().line + 1;
-    msg << ": " << (path.empty() ? "<root>" : path) << ": " << what;
-    throw ConfigError(msg.str());
+    msg << ": " << (path.empty() ? "<root>" : path);
+    return msg.str();
+}
+
+void YamlPath::fail(const YAML::Node& node, const std::string& what) const {
+    throw ConfigError(where(node) + ": " + what);
 }
 
 std::string read_text_file(const std::string& file) {

@@ -23,6 +23,8 @@ struct YamlPath {
 
     YamlPath child(const std::string& key) const;
     YamlPath index(std::size_t i) const;
+    // "file:line: path" of `node` (no line when the node has none): what errors name.
+    std::string where(const YAML::Node& node) const;
     [[noreturn]] void fail(const YAML::Node& node, const std::string& what) const;
 };
 
