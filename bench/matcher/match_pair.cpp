@@ -114,7 +114,18 @@ int main(int argc, char** argv) {
         const auto list = io::read_car_cloud_list(car_list);  // rows: 400, 401
         T_ref = list.at(0).inverse() * list.at(1);
     }
-    const auto pa = io::read_xyz(target), pb = io::read_xyz(source);
+    std::vector<Eigen::Vector3f> pa, pb;
+    try {
+        pa = io::read_xyz(target);
+        pb = io::read_xyz(source);
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        return 1;
+    }
+    if (pa.empty() || pb.empty()) {
+        std::cerr << "error: no points read from " << (pa.empty() ? target : source) << "\n";
+        return 1;
+    }
     const auto a = io::make_submap(base(target), pa), b = io::make_submap(base(source), pb);
     Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
     for (const auto& p : a.cloud) {

@@ -1,8 +1,9 @@
 #include "matcher/cloud_io.hpp"
 
-#include <cstring>
 #include <fstream>
 #include <sstream>
+
+#include "dataset/io.hpp"
 
 namespace maptune::matcher::io {
 namespace {
@@ -12,109 +13,7 @@ bool ends_with(const std::string& s, const std::string& suffix) {
            s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-std::size_t type_size(const std::string& t) {
-    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" ||
-        t == "float32")
-        return 4;
-    if (t == "double" || t == "float64") return 8;
-    return 0;
-}
-
-double read_binary(const char* p, const std::string& t) {
-    if (t == "float" || t == "float32") {
-        float v;
-        std::memcpy(&v, p, 4);
-        return v;
-    }
-    if (t == "double" || t == "float64") {
-        double v;
-        std::memcpy(&v, p, 8);
-        return v;
-    }
-    return 0.0;  // only float coordinates are supported; others read as 0
-}
-
 }  // namespace
-
-std::vector<Eigen::Vector3f> read_ply_xyz(const std::string& path) {
-    std::vector<Eigen::Vector3f> out;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return out;
-    std::string line;
-    if (!std::getline(in, line) || line.rfind("ply", 0) != 0) return out;
-    bool binary = false;
-    std::size_t vertex_count = 0;
-    bool in_vertex = false, vertex_first = false, seen_element = false;
-    std::vector<std::pair<std::string, std::string>> props;  // name, type
-    while (std::getline(in, line)) {
-        if (!line.empty() && line.back() == '\r') line.pop_back();
-        std::istringstream ls(line);
-        std::string word;
-        ls >> word;
-        if (word == "format") {
-            std::string fmt;
-            ls >> fmt;
-            if (fmt == "binary_big_endian") return out;
-            binary = fmt == "binary_little_endian";
-        } else if (word == "element") {
-            std::string name;
-            std::size_t count = 0;
-            ls >> name >> count;
-            in_vertex = name == "vertex";
-            if (in_vertex) {
-                vertex_count = count;
-                vertex_first = !seen_element;
-            }
-            seen_element = true;
-        } else if (word == "property" && in_vertex) {
-            std::string type, name;
-            ls >> type >> name;
-            if (type == "list") return out;
-            props.emplace_back(name, type);
-        } else if (word == "end_header") {
-            break;
-        }
-    }
-    if (!vertex_first || vertex_count == 0) return out;
-    int ix = -1, iy = -1, iz = -1;
-    for (std::size_t i = 0; i < props.size(); ++i) {
-        if (props[i].first == "x") ix = static_cast<int>(i);
-        if (props[i].first == "y") iy = static_cast<int>(i);
-        if (props[i].first == "z") iz = static_cast<int>(i);
-    }
-    if (ix < 0 || iy < 0 || iz < 0) return out;
-    out.reserve(vertex_count);
-    if (binary) {
-        std::vector<std::size_t> offset(props.size());
-        std::size_t stride = 0;
-        for (std::size_t i = 0; i < props.size(); ++i) {
-            offset[i] = stride;
-            const std::size_t s = type_size(props[i].second);
-            if (s == 0) return {};
-            stride += s;
-        }
-        std::vector<char> buf(stride);
-        for (std::size_t v = 0; v < vertex_count; ++v) {
-            if (!in.read(buf.data(), static_cast<std::streamsize>(stride))) return {};
-            out.emplace_back(
-                static_cast<float>(read_binary(buf.data() + offset[ix], props[ix].second)),
-                static_cast<float>(read_binary(buf.data() + offset[iy], props[iy].second)),
-                static_cast<float>(read_binary(buf.data() + offset[iz], props[iz].second)));
-        }
-    } else {
-        std::vector<double> vals(props.size());
-        for (std::size_t v = 0; v < vertex_count && std::getline(in, line); ++v) {
-            std::istringstream ls(line);
-            for (auto& x : vals) ls >> x;
-            if (!ls) return {};
-            out.emplace_back(static_cast<float>(vals[ix]), static_cast<float>(vals[iy]),
-                             static_cast<float>(vals[iz]));
-        }
-    }
-    return out;
-}
 
 std::vector<Eigen::Vector3f> read_csv_xyz(const std::string& path) {
     std::vector<Eigen::Vector3f> out;
@@ -131,7 +30,9 @@ std::vector<Eigen::Vector3f> read_csv_xyz(const std::string& path) {
 }
 
 std::vector<Eigen::Vector3f> read_xyz(const std::string& path) {
-    return ends_with(path, ".ply") ? read_ply_xyz(path) : read_csv_xyz(path);
+    // PLY and PCD through the dataset reader: one parser, and its errors name file and problem.
+    if (ends_with(path, ".ply") || ends_with(path, ".pcd")) return dataset::read_points(path);
+    return read_csv_xyz(path);
 }
 
 std::map<std::string, Eigen::Isometry3d> read_bunny_conf(const std::string& path) {

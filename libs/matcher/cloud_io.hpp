@@ -1,6 +1,7 @@
 #pragma once
-// Small readers for real scans such as tests/data (PLY ascii/binary, CSV, bun.conf,
-// 4x4 text matrices), so tests and benches need no PCL I/O. Errors: empty result / false.
+// Small readers for real scans such as tests/data (PLY/PCD via libs/dataset, CSV, bun.conf,
+// 4x4 text matrices), so tests and benches need no PCL I/O. Errors: read_xyz throws for PLY/PCD;
+// the others give an empty result / false.
 
 #include <Eigen/Geometry>
 #include <map>
@@ -11,14 +12,11 @@
 
 namespace maptune::matcher::io {
 
-// Vertices x y z of a PLY file (ascii or binary_little_endian; float or double properties).
-// Other elements (e.g. the bunny's range_grid) are ignored. Points (0,0,0) are kept.
-std::vector<Eigen::Vector3f> read_ply_xyz(const std::string& path);
-
 // First three numeric columns of a CSV or whitespace-separated file; a header line is skipped.
 std::vector<Eigen::Vector3f> read_csv_xyz(const std::string& path);
 
-// By extension: .ply or anything else as CSV.
+// By extension: .ply and .pcd as dataset::read_points reads them (throws dataset::DatasetError
+// naming the file and the problem; points (0,0,0) are kept), anything else as CSV.
 std::vector<Eigen::Vector3f> read_xyz(const std::string& path);
 
 // bun.conf: scan file name -> pose W_i of the scan in the common frame

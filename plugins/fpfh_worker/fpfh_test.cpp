@@ -22,7 +22,7 @@ Params bunny_params() {
 }
 
 std::vector<Eigen::Vector3f> scan(const std::string& name) {
-    auto v = matcher::io::read_ply_xyz(kBunnyDir + name);
+    auto v = matcher::io::read_xyz(kBunnyDir + name);
     v.erase(std::remove_if(v.begin(), v.end(), [](const auto& p) { return p.squaredNorm() == 0; }), v.end());
     return v;
 }

@@ -142,7 +142,14 @@ int main(int argc, char** argv) {
         T_ref = list[0].inverse() * list[1];
         have_ref = true;
     }
-    const auto pa = io::read_xyz(target), pb = io::read_xyz(source);
+    std::vector<Eigen::Vector3f> pa, pb;
+    try {
+        pa = io::read_xyz(target);
+        pb = io::read_xyz(source);
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        return 1;
+    }
     if (pa.empty() || pb.empty()) {
         std::cerr << "error: no points read from " << (pa.empty() ? target : source) << "\n";
         return 1;

@@ -46,8 +46,8 @@ TEST_P(BunnyPair, RegistersWithinOneDegreeAndTwoPercent) {
     const auto& c = GetParam();
     const auto poses = io::read_bunny_conf(kBunnyDir + "bun.conf");
     ASSERT_TRUE(poses.count(c.target) && poses.count(c.source)) << "missing bun.conf entries";
-    const auto pa = io::read_ply_xyz(kBunnyDir + c.target);
-    const auto pb = io::read_ply_xyz(kBunnyDir + c.source);
+    const auto pa = io::read_xyz(kBunnyDir + c.target);
+    const auto pb = io::read_xyz(kBunnyDir + c.source);
     ASSERT_GT(pa.size(), 10000u);
     ASSERT_GT(pb.size(), 10000u);
     const auto a = io::make_submap(c.target, pa);
