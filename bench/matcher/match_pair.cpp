@@ -115,15 +115,9 @@ int main(int argc, char** argv) {
         T_ref = list.at(0).inverse() * list.at(1);
     }
     std::vector<Eigen::Vector3f> pa, pb;
-    try {
-        pa = io::read_xyz(target);
-        pb = io::read_xyz(source);
-    } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        return 1;
-    }
-    if (pa.empty() || pb.empty()) {
-        std::cerr << "error: no points read from " << (pa.empty() ? target : source) << "\n";
+    std::string error;
+    if (!io::read_scan_pair(target, source, pa, pb, error)) {
+        std::cerr << "error: " << error << "\n";
         return 1;
     }
     const auto a = io::make_submap(base(target), pa), b = io::make_submap(base(source), pb);

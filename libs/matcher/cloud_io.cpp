@@ -1,5 +1,6 @@
 #include "matcher/cloud_io.hpp"
 
+#include <exception>
 #include <fstream>
 #include <sstream>
 
@@ -33,6 +34,23 @@ std::vector<Eigen::Vector3f> read_xyz(const std::string& path) {
     // PLY and PCD through the dataset reader: one parser, and its errors name file and problem.
     if (ends_with(path, ".ply") || ends_with(path, ".pcd")) return dataset::read_points(path);
     return read_csv_xyz(path);
+}
+
+bool read_scan_pair(const std::string& target, const std::string& source,
+                    std::vector<Eigen::Vector3f>& a, std::vector<Eigen::Vector3f>& b,
+                    std::string& error) {
+    try {
+        a = read_xyz(target);
+        b = read_xyz(source);
+    } catch (const std::exception& e) {
+        error = e.what();
+        return false;
+    }
+    if (a.empty() || b.empty()) {
+        error = "no points read from " + (a.empty() ? target : source);
+        return false;
+    }
+    return true;
 }
 
 std::map<std::string, Eigen::Isometry3d> read_bunny_conf(const std::string& path) {

@@ -19,6 +19,12 @@ std::vector<Eigen::Vector3f> read_csv_xyz(const std::string& path);
 // naming the file and the problem; points (0,0,0) are kept), anything else as CSV.
 std::vector<Eigen::Vector3f> read_xyz(const std::string& path);
 
+// Both scans of a pair by read_xyz; false with a message naming the file if either fails or
+// holds no points (for command-line tools).
+bool read_scan_pair(const std::string& target, const std::string& source,
+                    std::vector<Eigen::Vector3f>& a, std::vector<Eigen::Vector3f>& b,
+                    std::string& error);
+
 // bun.conf: scan file name -> pose W_i of the scan in the common frame
 // (R_i = quat(q1..q4 as x,y,z,w)^T, p_common = R_i p_scan + t_i; see the data README).
 std::map<std::string, Eigen::Isometry3d> read_bunny_conf(const std::string& path);

@@ -143,15 +143,8 @@ int main(int argc, char** argv) {
         have_ref = true;
     }
     std::vector<Eigen::Vector3f> pa, pb;
-    try {
-        pa = io::read_xyz(target);
-        pb = io::read_xyz(source);
-    } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        return 1;
-    }
-    if (pa.empty() || pb.empty()) {
-        std::cerr << "error: no points read from " << (pa.empty() ? target : source) << "\n";
+    if (!io::read_scan_pair(target, source, pa, pb, error)) {
+        std::cerr << "error: " << error << "\n";
         return 1;
     }
     // The bunny's PLY files mark missing range samples as (0,0,0).
