@@ -67,8 +67,14 @@ int main(int argc, char** argv) {
     FeatureCacheOptions cache;
     cache.key_quantum = 1e-5;
     Matcher m({}, cache);
-    const auto fa = m.features(io::make_submap("a", io::read_xyz(target)), params);
-    const auto fb = m.features(io::make_submap("b", io::read_xyz(source)), params);
+    std::vector<Eigen::Vector3f> pa, pb;
+    std::string error;
+    if (!io::read_scan_pair(target, source, pa, pb, error)) {
+        std::cerr << "error: " << error << "\n";
+        return 1;
+    }
+    const auto fa = m.features(io::make_submap("a", pa), params);
+    const auto fb = m.features(io::make_submap("b", pb), params);
     if (fa->status != FeatureStatus::kOk || fb->status != FeatureStatus::kOk) {
         std::cerr << "features failed: " << fa->reason << " / " << fb->reason << "\n";
         return 1;
