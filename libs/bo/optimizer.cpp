@@ -3,7 +3,6 @@
 #include <LBFGSB.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -390,57 +389,32 @@ Optimizer::Model Optimizer::build_model() {
             // Each candidate warping fitted on the same data; the one under which the values
             // themselves are most probable wins: log p(v) = log p(z) + Σ log |dz/dv|, with
             // log p(z) = −(neg. log posterior of the standardized z) − n log(scale of z).
+            double best_score = -std::numeric_limits<double>::infinity();
             // The offset c sets how far below the best the log compresses: with c = 0.1 × the
             // range alone, a few huge values (a quartic's corners) made every good value look
             // alike. Log-spaced c down to 0.001 range: ellipsoid9's p90 9e4 -> 139, Zakharov
             // 207 -> 128, Dixon-Price 144 -> 15 at twice the refit time (BENCHMARKS.md,
             // "Warping offsets").
-            const std::array<double, 4> alphas = {0.0, 0.1, 0.01, 0.001};
-            struct Candidate {
-                Eigen::VectorXd z;
-                gp::FitResult fit;
-                bool fitted = false;
-                double score = -std::numeric_limits<double>::infinity();
-            };
-            std::array<Candidate, 4> fits;
-            // The four fits are independent and run side by side, one thread each: three starts
-            // per fit on two threads left one idle half the time (refit asks at n = 100: 55 ->
-            // BENCHMARKS.md, "Time per ask"). Each fit is seeded alike and picked in order below,
-            // so the result does not depend on the thread count.
-            gp::GpOptions one_thread = gp_options;
-            one_thread.threads = 1;
-            gp::parallel_for(static_cast<int>(alphas.size()), gp::resolve_threads(gp_options.threads), [&](int a) {
-                const double alpha = alphas[static_cast<std::size_t>(a)];
+            for (const double alpha : {0.0, 0.1, 0.01, 0.001}) {
                 const Warp w = warp_for(alpha, raw);
-                Candidate& c = fits[static_cast<std::size_t>(a)];
-                c.z.resize(n);
+                Eigen::VectorXd z(n);
                 double log_jac = 0;
                 for (Eigen::Index i = 0; i < n; ++i) {
-                    c.z(i) = w.apply(raw(i));
+                    z(i) = w.apply(raw(i));
                     log_jac += w.log_slope(raw(i));
                 }
                 const auto warm = warp_hp_.find(alpha);  // its own last fit: the warm start
-                gp::GaussianProcess g(d, one_thread);
+                gp::GaussianProcess g(d, gp_options);
                 g.set_hyperparameters(warm != warp_hp_.end() ? warm->second : hp_);
-                if (!g.set_data(x, c.z)) return;
-                c.fit = g.fit(mix(options_.seed, 1000 + nu));
-                c.fitted = true;
-                c.score = -c.fit.neg_log_posterior - static_cast<double>(n) * std::log(g.output_scale()) + log_jac;
-            });
-            double best_score = -std::numeric_limits<double>::infinity();
-            for (std::size_t a = 0; a < alphas.size(); ++a) {
-                Candidate& c = fits[a];
-                if (!c.fitted) continue;
-                warp_hp_[alphas[a]] = c.fit.hyperparameters;
-                if (c.score > best_score) {
-                    best_score = c.score;
-                    warp_alpha_ = alphas[a];
-                    hp_ = c.fit.hyperparameters;
-                    // The fitted model again, with the caller's threads for the acquisition.
-                    model = gp::GaussianProcess(d, gp_options);
-                    model.set_hyperparameters(hp_);
-                    model.set_data(x, c.z);
-                    const Warp w = warp_for(alphas[a], raw);
+                if (!g.set_data(x, z)) continue;
+                const gp::FitResult fr = g.fit(mix(options_.seed, 1000 + nu));
+                warp_hp_[alpha] = fr.hyperparameters;
+                const double score = -fr.neg_log_posterior - static_cast<double>(n) * std::log(g.output_scale()) + log_jac;
+                if (score > best_score) {
+                    best_score = score;
+                    warp_alpha_ = alpha;
+                    hp_ = fr.hyperparameters;
+                    model = std::move(g);
                     best = w.apply(w.best);
                 }
             }
