@@ -11,8 +11,14 @@ space and known minimum (`--space S.yaml --objective-cmd CMD --minimum V`).
 
 Optuna (Debian python3-optuna, python3-cmaes) runs with its defaults; maptune optimize with
 its defaults (--minimize). Prints median simple regret at 25/50/100 evaluations (and the 90th
-percentile at the budget) per function and optimizer; --json writes every curve.
+percentile at the budget) per function and optimizer, a 95 % confidence interval of the median at
+the budget (order statistics: with 10 seeds it spans the 2nd to the 9th value, with 30 the 10th
+to the 21st), and for maptune against each other optimizer the chance that a maptune run ends
+below a run of the other (Mann-Whitney, ties halved; 0.5 = no difference). --json writes every
+curve. Medians of 10 seeds move by a factor of two between seed sets on some functions
+(BENCHMARKS.md): compare with the interval, not the median alone.
 """
+import math
 import argparse
 import json
 import os
@@ -101,6 +107,26 @@ def run_optuna(sampler_name, space, command, budget, seed):
     return values
 
 
+def median_interval(sorted_values, level=0.95):
+    """Distribution-free interval of the median: ranks k and n-k+1 with P(Bin(n, 1/2) < k) <= (1-level)/2."""
+    n = len(sorted_values)
+    k, tail = 0, 0.0
+    while k < n:
+        nxt = tail + math.comb(n, k) / 2 ** n  # P(B <= k)
+        if nxt > (1 - level) / 2:
+            break
+        tail, k = nxt, k + 1
+    if k == 0:  # too few values for the level: the whole range
+        return sorted_values[0], sorted_values[-1]
+    return sorted_values[k - 1], sorted_values[n - k]
+
+
+def chance_below(a, b):
+    """P(a run of A ends below a run of B): the Mann-Whitney statistic over all pairs, ties halved."""
+    wins = sum((x < y) + 0.5 * (x == y) for x in a for y in b)
+    return wins / (len(a) * len(b))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--function", action="append", default=[], help="maptune test function (repeatable)")
@@ -141,8 +167,8 @@ def main():
     checkpoints = sorted(set(checkpoints))
     results = []
     print("| function | optimizer | seeds | " + " | ".join(f"regret@{c}" for c in checkpoints) +
-          f" | p90@{a.budget} | max@{a.budget} |")
-    print("|---|---|---|" + "---|" * (len(checkpoints) + 2))
+          f" | 95 % interval of the median@{a.budget} | p90@{a.budget} | max@{a.budget} |")
+    print("|---|---|---|" + "---|" * (len(checkpoints) + 3))
     for name, space_file, command, minimum in problems:
         space = read_space(space_file)
         for opt in a.optimizers.split(","):
@@ -158,13 +184,30 @@ def main():
             final = sorted(c[-1] for c in curves)
             med = [statistics.median(c[k - 1] for c in curves) for k in checkpoints]
             p90 = final[min(len(final) - 1, int(0.9 * (len(final) - 1) + 0.5))]
+            lo, hi = median_interval(final)
             print(f"| {name} | {opt} | {len(curves)} | " + " | ".join(f"{m:.3g}" for m in med) +
-                  f" | {p90:.3g} | {final[-1]:.3g} |", flush=True)
+                  f" | {lo:.3g} … {hi:.3g} | {p90:.3g} | {final[-1]:.3g} |", flush=True)
             results.append({"function": name, "optimizer": opt, "checkpoints": checkpoints, "median_regret": med,
-                            "p90_final": p90, "curves": curves})
+                            "median_interval_final": [lo, hi], "p90_final": p90, "curves": curves})
+    print_chances(results)
     if a.json:
         with open(a.json, "w") as f:
             json.dump(results, f)
+
+
+def print_chances(results):
+    """maptune against every other optimizer on the same function: P(maptune's run ends lower)."""
+    rows = []
+    for r in results:
+        if r["optimizer"] == "maptune":
+            continue
+        m = next((x for x in results if x["function"] == r["function"] and x["optimizer"] == "maptune"), None)
+        if m:
+            p = chance_below([c[-1] for c in m["curves"]], [c[-1] for c in r["curves"]])
+            rows.append(f"| {r['function']} | {r['optimizer']} | {p:.2f} |")
+    if rows:
+        print("\n| function | against | P(maptune ends lower) |\n|---|---|---|")
+        print("\n".join(rows))
 
 
 if __name__ == "__main__":
