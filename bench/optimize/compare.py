@@ -18,9 +18,9 @@ below a run of the other (Mann-Whitney, ties halved; 0.5 = no difference). --jso
 curve. Medians of 10 seeds move by a factor of two between seed sets on some functions
 (BENCHMARKS.md): compare with the interval, not the median alone.
 """
-import math
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
