@@ -116,7 +116,41 @@ CompareResult validate(const experiment::Experiment& e, const std::vector<NamedP
     }
     options.e_star = e.e_star;
     options.w_v = e.w_v;
-    return compare(e.space, sets, validation_targets(e), options);
+    CompareResult r = compare(e.space, sets, validation_targets(e), options);
+    add_pooled_column(r);
+    return r;
+}
+
+void add_pooled_column(CompareResult& r) {
+    if (r.columns.size() < 2) return;
+    const CompareColumn& first = r.columns.front();
+    CompareColumn pooled;
+    pooled.target.label = kPooledTarget;
+    pooled.target.view = first.target.view;
+    pooled.target.reference = first.target.reference;
+    pooled.settings = first.settings;
+    pooled.settings.m_star = 0;
+    for (const auto& col : r.columns) {
+        if (col.target.view != first.target.view || col.target.reference != first.target.reference) return;
+        pooled.pairs += col.pairs;
+        pooled.settings.m_star += col.settings.m_star;
+    }
+    pooled.dataset_name = kPooledTarget;
+    pooled.dataset_id = kPooledTarget;
+    pooled.m_star_rule = "the sum of the " + std::to_string(r.columns.size()) + " targets' m*";
+    for (std::size_t s = 0; s < r.set_names.size(); ++s) {
+        std::vector<const scoring::ScoreReport*> parts;
+        CompareCell cell;
+        cell.from_store = true;
+        for (const auto& col : r.columns) {
+            parts.push_back(&col.cells[s].report);
+            cell.from_store = cell.from_store && col.cells[s].from_store;
+            cell.wall_seconds += col.cells[s].wall_seconds;
+        }
+        cell.report = scoring::pool_reports(parts, pooled.settings);
+        pooled.cells.push_back(std::move(cell));
+    }
+    r.columns.push_back(std::move(pooled));
 }
 
 namespace {

@@ -31,6 +31,15 @@ std::vector<CompareTarget> validation_targets(const experiment::Experiment& e);
 inline constexpr const char* kBaselineSet = "baseline";
 inline constexpr const char* kBestSet = "best";
 inline constexpr const char* kPredictedSet = "predicted";
+// Column of all held-out targets together (reserved as a target label).
+inline constexpr const char* kPooledTarget = "pooled";
+
+// Appends the column "pooled" when `r` has at least two columns of one view and reference:
+// each set scored on the union of all columns' pairs, m* the sum of theirs (e* and w_v of the
+// first column; a validation's columns share them). A single held-out view of a few hundred
+// pairs, where a tuned set matches a few dozen, scores with a standard error of several
+// hundredths; the union is the larger sample.
+void add_pooled_column(CompareResult& r);
 
 // The sets of a run directory: "baseline" (the first start point; further start points as
 // "start:<file stem>"), "best" (best_params.yaml) and "predicted" (predicted_best.yaml, the
@@ -40,7 +49,7 @@ std::vector<NamedParameterSet> validation_sets(const experiment::Experiment& e,
                                                const std::filesystem::path& run_dir);
 
 // Scores `sets` on every validation target (generating held-out datasets as needed) with the
-// experiment's measure (e*, w_v) and matcher settings. Throws params::ConfigError when the
+// experiment's measure (e*, w_v) and matcher settings, plus the pooled column (above). Throws params::ConfigError when the
 // experiment has no `validate:` section.
 CompareResult validate(const experiment::Experiment& e, const std::vector<NamedParameterSet>& sets,
                        CompareOptions options);

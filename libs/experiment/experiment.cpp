@@ -111,6 +111,9 @@ std::vector<ValidationTarget> read_validate_section(const YAML::Node& n, const Y
         if (v.label.empty() || v.label.find_first_of(",\n") != std::string::npos) {
             tp.child("label").fail(t["label"], "expected a non-empty label without ',' or newline");
         }
+        if (v.label == "pooled") {
+            tp.child("label").fail(t["label"], "'pooled' is reserved for the column of all targets together");
+        }
         if (!labels.insert(v.label).second) {
             tp.fail(t, "label '" + v.label + "' used twice (give each target its own 'label')");
         }
@@ -233,10 +236,16 @@ Experiment load_experiment(const std::string& file) {
     if (root["measure"].IsDefined()) {
         const YamlPath p = top.child("measure");
         const YAML::Node n = root["measure"];
-        params::check_keys(n, p, {"e_star", "m_star", "w_v", "max_pair_seconds"});
+        params::check_keys(n, p, {"e_star", "m_star", "m_star_per_pair", "w_v", "max_pair_seconds"});
         if (n["e_star"].IsDefined()) e.e_star = read_range(n["e_star"], p.child("e_star"), 0.051, 1e6);
         if (n["m_star"].IsDefined() && !(n["m_star"].IsScalar() && n["m_star"].Scalar() == "auto")) {
             e.m_star = read_range(n["m_star"], p.child("m_star"), 1e-9, 1e9);
+        }
+        if (n["m_star_per_pair"].IsDefined()) {
+            if (n["m_star"].IsDefined()) {
+                p.child("m_star_per_pair").fail(n["m_star_per_pair"], "give either 'm_star' or 'm_star_per_pair', not both");
+            }
+            e.m_star_per_pair = read_range(n["m_star_per_pair"], p.child("m_star_per_pair"), 1e-9, 1e6);
         }
         if (n["w_v"].IsDefined()) e.w_v = read_range(n["w_v"], p.child("w_v"), 0, 1);
         if (n["max_pair_seconds"].IsDefined()) {

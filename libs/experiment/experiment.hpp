@@ -52,7 +52,8 @@ struct Experiment {
     std::string view = "subsequent";         // complete | subsequent
     std::string reference = "gt";            // gt | odometry
     double e_star = 0.4;                     // [m]
-    std::optional<double> m_star;            // empty = derived from the view's overlaps
+    std::optional<double> m_star;            // absolute; neither this nor m_star_per_pair: auto
+    std::optional<double> m_star_per_pair;   // m* = this x pairs of the training view
     double w_v = 0.5;
     // Run-time budget (measure.max_pair_seconds): the mean seconds per pair a set may take from
     // the raw submaps; 0 = none. The optimizer maximizes objective() (p, penalized above the

@@ -102,4 +102,35 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
     return report;
 }
 
+ScoreReport pool_reports(const std::vector<const ScoreReport*>& reports, const measure::MeasureSettings& settings) {
+    ScoreReport pooled;
+    pooled.settings = settings;
+    std::vector<measure::MatchError> errors;
+    std::vector<double> e_t, e_r;
+    double time_sum = 0;
+    std::size_t timed = 0;
+    for (const ScoreReport* r : reports) {
+        pooled.pairs += r->pairs;
+        pooled.failed += r->failed;
+        pooled.timeouts += r->timeouts;
+        pooled.missing += r->missing;
+        const std::size_t r_timed = r->per_pair.size() - r->missing;
+        time_sum += r->mean_pair_s * static_cast<double>(r_timed);
+        timed += r_timed;
+        for (const PairScore& ps : r->per_pair) {
+            pooled.per_pair.push_back(ps);
+            if (!ps.matched) continue;
+            errors.push_back({ps.e_t, ps.e_r, ps.d});
+            e_t.push_back(ps.e_t);
+            e_r.push_back(ps.e_r);
+        }
+    }
+    pooled.matched = errors.size();
+    if (timed > 0) pooled.mean_pair_s = time_sum / static_cast<double>(timed);
+    pooled.score = measure::score(errors, settings);
+    pooled.e_t = error_stats(e_t);
+    pooled.e_r = error_stats(e_r);
+    return pooled;
+}
+
 }  // namespace maptune::scoring

@@ -59,4 +59,10 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
                               const std::vector<store::PairRecord>& results,
                               const measure::MeasureSettings& settings);
 
+// One report over the union of several views' pairs (validation's "pooled" column): counts and
+// per-pair scores concatenated, p recomputed from all matched pairs' errors with `settings`
+// (its m* normally the sum of the views' m*), the mean pair time weighted by pairs timed.
+// Pair ids of different views may repeat; they are kept as they are.
+ScoreReport pool_reports(const std::vector<const ScoreReport*>& reports, const measure::MeasureSettings& settings);
+
 }  // namespace maptune::scoring

@@ -116,7 +116,7 @@ void RunDirectory::write_record(const RunSummary& summary, const std::optional<R
         out << YAML::Key << "measure" << YAML::Value << YAML::BeginMap;
         out << YAML::Key << "e_star" << YAML::Value << num(e.e_star);
         out << YAML::Key << "m_star" << YAML::Value << num(summary.m_star);
-        out << YAML::Key << "m_star_rule" << YAML::Value << (e.m_star ? "given" : "auto");
+        out << YAML::Key << "m_star_rule" << YAML::Value << (e.m_star ? "given" : e.m_star_per_pair ? "per_pair" : "auto");
         out << YAML::Key << "w_v" << YAML::Value << num(e.w_v);
         out << YAML::EndMap;
         out << YAML::Key << "matcher" << YAML::Value << YAML::BeginMap;

@@ -204,9 +204,14 @@ RunSummary OptimizerService::run() {
     const auto reference = dataset::parse_reference(e.reference);
     const auto pairs = ds->pairs(dataset::parse_view(e.view), reference);
     double m_star = 0;
+    std::string m_star_rule;
     if (e.m_star) {
         m_star = *e.m_star;
+    } else if (e.m_star_per_pair) {
+        m_star = *e.m_star_per_pair * static_cast<double>(pairs.size());
+        m_star_rule = " (" + fmt(*e.m_star_per_pair, 4) + " per pair)";
     } else {
+        m_star_rule = " (auto: pairs with " + e.reference + " overlap >= 0.3)";
         // m_star: auto counts pairs that overlap under the experiment's own reference: with
         // odometry, the clouds placed by odometry poses — never ground truth.
         if (reference == dataset::Reference::odometry) {
@@ -221,7 +226,7 @@ RunSummary OptimizerService::run() {
     const measure::MeasureSettings settings{e.e_star, m_star, e.w_v};
     log("experiment " + options_.experiment_id + ": dataset " + ds->manifest().name + " (" + dataset_id_ +
         "), view " + e.view + "/" + e.reference + ", " + std::to_string(pairs.size()) + " pairs, m* = " +
-        fmt(m_star, 1) + (e.m_star ? "" : " (auto: pairs with " + e.reference + " overlap >= 0.3)") + ", budget " +
+        fmt(m_star, 1) + m_star_rule + ", budget " +
         std::to_string(e.max_evaluations) + " evaluations");
 
     // A compatible worker tells us the matcher version (part of every observation key).

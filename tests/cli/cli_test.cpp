@@ -252,7 +252,7 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
     std::ofstream(dir_ / "exp.yaml")
         << "name: seeded\nspace: " << src << "/configs/spaces/lru_matcher.yaml\n"
         << "dataset: {dir: train, generate: {preset: lab-tiny, runs: 1, submaps: 4, seed: 5}}\n"
-        << "view: complete\nmeasure: {m_star: 3}\nbudget: {evaluations: 3}\n"
+        << "view: complete\nmeasure: {m_star_per_pair: 0.5}\nbudget: {evaluations: 3}\n"  // 6 pairs: m* 3
         << "optimizer: {initial_points: 1}\nmatcher: {threads: 2}\n"
         << "start_points: [" << src << "/configs/params/x_baseline.yaml]\n"
         << "validate:\n  - label: held\n    dataset: {dir: held, generate: {preset: lab-tiny, runs: 1, "
@@ -271,6 +271,8 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
         EXPECT_NE(record.find("experiment_file: " + (dir_ / "exp.yaml").string()), std::string::npos) << record;
         EXPECT_NE(record.find("state: finished"), std::string::npos) << record;
         EXPECT_NE(record.find("evaluations: 3"), std::string::npos) << record;
+        EXPECT_NE(record.find("m_star: 3.0\n"), std::string::npos) << record;
+        EXPECT_NE(record.find("m_star_rule: per_pair"), std::string::npos) << record;
         const std::string v = slurp(root / seed / "validation.csv");
         EXPECT_NE(v.find("\nbaseline,held,"), std::string::npos) << v;
         EXPECT_NE(v.find("\nbest,held,"), std::string::npos) << v;

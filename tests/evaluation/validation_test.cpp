@@ -187,6 +187,73 @@ TEST_F(ValidationTest, ExperimentMatcherSettingsAndTheirErrors) {
     }
 }
 
+// A report of `matched` pairs with translation errors `e_t` (d 1 m) and `unmatched` more pairs.
+scoring::ScoreReport report_of(const std::vector<double>& e_t, std::size_t unmatched, double m_star) {
+    scoring::ScoreReport r;
+    r.settings = {0.4, m_star, 0.5};
+    std::vector<measure::MatchError> errors;
+    for (double e : e_t) {
+        scoring::PairScore ps;
+        ps.matched = true;
+        ps.e_t = e;
+        ps.d = 1;
+        r.per_pair.push_back(ps);
+        errors.push_back({e, 0, 1});
+    }
+    r.per_pair.resize(r.per_pair.size() + unmatched);
+    r.pairs = r.per_pair.size();
+    r.matched = e_t.size();
+    r.score = measure::score(errors, r.settings);
+    return r;
+}
+
+// The pooled column scores each set on the union of the targets' pairs (m* summed), which is
+// not the mean of its p on the targets; targets of different views are not pooled.
+TEST(PooledColumnTest, EachSetScoredOnTheUnionOfTheTargets) {
+    CompareResult r;
+    r.set_names = {kBaselineSet, kBestSet};
+    for (double m_star : {4.0, 6.0}) {
+        CompareColumn col;
+        col.target.label = "t" + std::to_string(r.columns.size());
+        col.pairs = 10;
+        col.settings = {0.4, m_star, 0.5};
+        r.columns.push_back(col);
+    }
+    // baseline: 3 good matches on the first target, 6 poor ones on the second; best: 2 + 2 good.
+    r.columns[0].cells = {{report_of({0.05, 0.1, 0.1}, 7, 4), true, 0, {}}, {report_of({0.05, 0.05}, 8, 4), true, 0, {}}};
+    r.columns[1].cells = {{report_of({0.35, 0.3, 0.3, 0.3, 0.32, 0.38}, 4, 6), false, 2.5, {}},
+                          {report_of({0.1, 0.1}, 8, 6), true, 0, {}}};
+    add_pooled_column(r);
+    ASSERT_EQ(r.columns.size(), 3u);
+    const CompareColumn& pooled = r.columns[2];
+    EXPECT_EQ(pooled.target.label, kPooledTarget);
+    EXPECT_EQ(pooled.pairs, 20u);
+    EXPECT_DOUBLE_EQ(pooled.settings.m_star, 10.0);
+    const measure::MeasureSettings all{0.4, 10, 0.5};
+    std::vector<measure::MatchError> base;
+    for (double e : {0.05, 0.1, 0.1, 0.35, 0.3, 0.3, 0.3, 0.32, 0.38}) base.push_back({e, 0, 1});
+    EXPECT_DOUBLE_EQ(pooled.cells[0].report.score.p, measure::score(base, all).p);
+    EXPECT_EQ(pooled.cells[0].report.score.m, 9u);
+    EXPECT_FALSE(pooled.cells[0].from_store);  // one part was evaluated
+    EXPECT_DOUBLE_EQ(pooled.cells[0].wall_seconds, 2.5);
+    EXPECT_TRUE(pooled.cells[1].from_store);
+    const double mean_p = 0.5 * (r.columns[0].cells[0].report.score.p + r.columns[1].cells[0].report.score.p);
+    EXPECT_GT(std::abs(pooled.cells[0].report.score.p - mean_p), 0.01);
+    // The CSV has a row per set for it.
+    const auto csv = validation_csv(r);
+    EXPECT_NE(csv.find("\nbest,pooled,pooled,"), std::string::npos) << csv;
+
+    CompareResult single = r;
+    single.columns.resize(1);
+    add_pooled_column(single);
+    EXPECT_EQ(single.columns.size(), 1u);
+    CompareResult mixed = r;
+    mixed.columns.resize(2);
+    mixed.columns[1].target.view = dataset::View::subsequent;
+    add_pooled_column(mixed);
+    EXPECT_EQ(mixed.columns.size(), 2u);
+}
+
 TEST(SeedSummaryTest, MedianMinMaxAndSpreadOverSeeds) {
     const Spread s = spread({0.7, 0.5, 0.6, 0.9});
     EXPECT_EQ(s.n, 4);

@@ -152,7 +152,12 @@ TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
     const Experiment e = load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\n"));
     EXPECT_EQ(e.optimize.size(), 9u);
     EXPECT_FALSE(e.m_star.has_value());
+    EXPECT_FALSE(e.m_star_per_pair.has_value());
     EXPECT_EQ(e.view, "subsequent");
+    const Experiment per_pair =
+        load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\nmeasure: {m_star_per_pair: 0.1465}\n"));
+    EXPECT_DOUBLE_EQ(*per_pair.m_star_per_pair, 0.1465);
+    EXPECT_FALSE(per_pair.m_star.has_value());
     EXPECT_EQ(e.reference, "gt");
     EXPECT_FALSE(e.generate.has_value());
     EXPECT_TRUE(e.seeds.empty());
@@ -185,6 +190,8 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "optimize: [r_N]\nfixed: {n_C: 20}\n", "fixed.n_C: n_C: 20.0 is outside [1.0, 10.0]");
     expect_error(head + "view: sideways\n", "view: expected one of complete | subsequent, got 'sideways'");
     expect_error(head + "measure: {e_star: 0.01}\n", "measure.e_star: expected a number in");
+    expect_error(head + "measure: {m_star: 10, m_star_per_pair: 0.1}\n", "give either 'm_star' or 'm_star_per_pair'");
+    expect_error(head + "measure: {m_star_per_pair: 0}\n", "measure.m_star_per_pair: expected a number in");
     expect_error(head + "budget: {evaluations: 2.5}\n", "budget.evaluations: expected an integer");
     expect_error(head + "optimizer: {acquisition: pi}\n", "optimizer.acquisition: expected one of");
     expect_error(head + "optimizer: {warping: boxcox}\n", "optimizer.warping: expected one of");
@@ -204,6 +211,7 @@ TEST_F(ExperimentTest, ErrorsNameTheKeyAndWhatWasExpected) {
     expect_error(head + "{a: 1}: 2\n", "expected a plain name as key");
     expect_error(head + "fixed: {[r_N]: 0.2}\n", "expected a plain name as key");
     expect_error(head + "validate: [{dataset: a/x}, {dataset: b/x}]\n", "label 'x' used twice");
+    expect_error(head + "validate: [{dataset: a/pooled}]\n", "'pooled' is reserved");
     expect_error(head + "validate: [{dataset: a, reference: lidar}]\n", "validate[0].reference: expected one of");
     expect_error(head + "validate: [{dataset: {dir: a, generate: {preset: lab, sim: [worlds]}}}]\n",
                  "validate[0].dataset.generate.sim: expected a mapping");

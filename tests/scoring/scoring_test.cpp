@@ -100,6 +100,39 @@ TEST_F(ScoringTest, UnmatchedFailedAndMissingPairs) {
     EXPECT_EQ(r.per_pair.size(), 12u);
 }
 
+// Two parts of a view scored apart and pooled with the sum of their m* give what the whole
+// view scores: the same p, counts and error statistics.
+TEST_F(ScoringTest, PoolingPartsOfAViewScoresTheWholeView) {
+    const auto ds = dataset::Dataset::open(root_ / "ds");
+    const auto pairs = ds.pairs(dataset::View::complete, dataset::Reference::gt);
+    ASSERT_EQ(pairs.size(), 12u);
+    auto est = results(pairs, 4, 0.3);  // 4 exact, 8 off by 30 cm
+    est[5].matched = false;
+    est[5].status = store::PairStatus::kNoMatch;
+    est[9].matched = false;
+    est[9].status = store::PairStatus::kFailed;
+    for (std::size_t i = 0; i < est.size(); ++i) est[i].duration_s = 0.1 * static_cast<double>(i + 1);
+    const std::vector<dataset::SubmapPair> first(pairs.begin(), pairs.begin() + 5), rest(pairs.begin() + 5, pairs.end());
+    const measure::MeasureSettings s1{0.4, 2, 0.5}, s2{0.4, 5, 0.5}, all{0.4, 7, 0.5};
+    const auto a = score_observation(ds, first, est, s1);
+    const auto b = score_observation(ds, rest, est, s2);
+    const auto whole = score_observation(ds, pairs, est, all);
+    const auto pooled = pool_reports({&a, &b}, all);
+    EXPECT_NEAR(pooled.score.p, whole.score.p, 1e-12);
+    EXPECT_NEAR(pooled.score.eps, whole.score.eps, 1e-12);
+    EXPECT_EQ(pooled.score.m, whole.score.m);
+    EXPECT_EQ(pooled.score.m, 10u);
+    EXPECT_EQ(pooled.pairs, 12u);
+    EXPECT_EQ(pooled.matched, whole.matched);
+    EXPECT_EQ(pooled.failed, 1u);
+    EXPECT_EQ(pooled.per_pair.size(), 12u);
+    EXPECT_NEAR(pooled.e_t.median, whole.e_t.median, 1e-12);
+    EXPECT_NEAR(pooled.e_r.p90, whole.e_r.p90, 1e-12);
+    EXPECT_NEAR(pooled.mean_pair_s, whole.mean_pair_s, 1e-12);
+    // Not the mean of the parts' p: m* and the ratings are pooled, not the scores.
+    EXPECT_NE(pooled.score.p, 0.5 * (a.score.p + b.score.p));
+}
+
 TEST_F(ScoringTest, MStarIsDerivedFromOverlappingPairs) {
     const auto ds = dataset::Dataset::open(root_ / "ds");
     const auto pairs = ds.pairs(dataset::View::complete, dataset::Reference::gt);
