@@ -49,8 +49,8 @@ std::vector<NamedParameterSet> validation_sets(const experiment::Experiment& e,
                                                const std::filesystem::path& run_dir);
 
 // Scores `sets` on every validation target (generating held-out datasets as needed) with the
-// experiment's measure (e*, w_v) and matcher settings, plus the pooled column (above). Throws params::ConfigError when the
-// experiment has no `validate:` section.
+// experiment's measure (e*, w_v) and matcher settings, plus the pooled column (above). Throws
+// params::ConfigError when the experiment has no `validate:` section.
 CompareResult validate(const experiment::Experiment& e, const std::vector<NamedParameterSet>& sets,
                        CompareOptions options);
 
