@@ -421,7 +421,11 @@ const figureDiv = (id) => {
   const f = figures.find((x) => x.id === id);
   return f ? `<figure><div class="fig" id="fig-${id}" data-figure="${id}"></div><figcaption><a href="figures/${id}.svg">${id}.svg</a></figcaption></figure>` : '';
 };
-const title = runs.length ? `maptune report — ${esc(runs[0].record?.experiment ?? runs[0].name)}` : 'maptune report';
+// One experiment's name, or how many experiments a report of several shows.
+const experimentNames = [...new Set(runs.map((r) => r.record?.experiment ?? r.name))];
+const title = !runs.length ? 'maptune report'
+  : experimentNames.length === 1 ? `maptune report — ${esc(experimentNames[0])}`
+  : `maptune report — ${experimentNames.length} experiments`;
 const sections = runs.map((run, i) => {
   const k = runs.length > 1 ? `run${i + 1}-` : '';
   const notes = (run.notes || []).map((n) => `<li>${esc(n)}</li>`).join('');
