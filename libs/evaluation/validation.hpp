@@ -32,7 +32,7 @@ inline constexpr const char* kBaselineSet = "baseline";
 inline constexpr const char* kBestSet = "best";
 inline constexpr const char* kPredictedSet = "predicted";
 // Column of all held-out targets together (reserved as a target label).
-inline constexpr const char* kPooledTarget = "pooled";
+inline constexpr const char* kPooledTarget = experiment::kPooledValidationLabel;
 
 // Appends the column "pooled" when `r` has at least two columns of one view and reference:
 // each set scored on the union of all columns' pairs, m* the sum of theirs (e* and w_v of the

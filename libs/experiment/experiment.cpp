@@ -111,8 +111,8 @@ std::vector<ValidationTarget> read_validate_section(const YAML::Node& n, const Y
         if (v.label.empty() || v.label.find_first_of(",\n") != std::string::npos) {
             tp.child("label").fail(t["label"], "expected a non-empty label without ',' or newline");
         }
-        if (v.label == "pooled") {
-            tp.child("label").fail(t["label"], "'pooled' is reserved for the column of all targets together");
+        if (v.label == kPooledValidationLabel) {
+            tp.child("label").fail(t["label"], "'" + v.label + "' is reserved for the column of all targets together");
         }
         if (!labels.insert(v.label).second) {
             tp.fail(t, "label '" + v.label + "' used twice (give each target its own 'label')");

@@ -28,6 +28,9 @@ struct GenerateSpec {
     std::vector<SimSetting> sim;
 };
 
+// Reserved validation label: the column of all targets together (evaluation::add_pooled_column).
+inline constexpr const char* kPooledValidationLabel = "pooled";
+
 // A held-out dataset view the tuned sets are validated on (`validate:`, issue 11): the
 // thesis's protocol is to tune on subsequent pairs and judge on complete views with gt.
 struct ValidationTarget {

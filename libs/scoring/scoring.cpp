@@ -25,6 +25,19 @@ Eigen::Isometry3d to_isometry(const Eigen::Matrix4d& m) {
     return T;
 }
 
+// The matched pairs' part of a report: m, p and the error statistics.
+void summarize_matches(ScoreReport& report, const std::vector<measure::MatchError>& errors) {
+    std::vector<double> e_t, e_r;
+    for (const auto& e : errors) {
+        e_t.push_back(e.e_t);
+        e_r.push_back(e.e_r);
+    }
+    report.matched = errors.size();
+    report.score = measure::score(errors, report.settings);
+    report.e_t = error_stats(std::move(e_t));
+    report.e_r = error_stats(std::move(e_r));
+}
+
 }  // namespace
 
 std::string pair_id(const dataset::SubmapPair& pair) { return pair.id_a + "|" + pair.id_b; }
@@ -58,7 +71,6 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
     report.settings = settings;
     report.pairs = pairs.size();
     std::vector<measure::MatchError> errors;
-    std::vector<double> e_t, e_r;
     for (const auto& p : pairs) {
         PairScore ps;
         ps.pair_id = pair_id(p);
@@ -88,17 +100,12 @@ ScoreReport score_observation(const dataset::Dataset& dataset,
             ps.e_r = e.e_r;
             ps.rating = measure::rate_match(e, settings.e_star);
             errors.push_back(e);
-            e_t.push_back(e.e_t);
-            e_r.push_back(e.e_r);
         }
         report.per_pair.push_back(ps);
     }
-    report.matched = errors.size();
     const std::size_t timed = report.per_pair.size() - report.missing;
     if (timed > 0) report.mean_pair_s /= static_cast<double>(timed);
-    report.score = measure::score(errors, settings);
-    report.e_t = error_stats(e_t);
-    report.e_r = error_stats(e_r);
+    summarize_matches(report, errors);
     return report;
 }
 
@@ -106,7 +113,6 @@ ScoreReport pool_reports(const std::vector<const ScoreReport*>& reports, const m
     ScoreReport pooled;
     pooled.settings = settings;
     std::vector<measure::MatchError> errors;
-    std::vector<double> e_t, e_r;
     double time_sum = 0;
     std::size_t timed = 0;
     for (const ScoreReport* r : reports) {
@@ -121,15 +127,10 @@ ScoreReport pool_reports(const std::vector<const ScoreReport*>& reports, const m
             pooled.per_pair.push_back(ps);
             if (!ps.matched) continue;
             errors.push_back({ps.e_t, ps.e_r, ps.d});
-            e_t.push_back(ps.e_t);
-            e_r.push_back(ps.e_r);
         }
     }
-    pooled.matched = errors.size();
     if (timed > 0) pooled.mean_pair_s = time_sum / static_cast<double>(timed);
-    pooled.score = measure::score(errors, settings);
-    pooled.e_t = error_stats(e_t);
-    pooled.e_r = error_stats(e_r);
+    summarize_matches(pooled, errors);
     return pooled;
 }
 
