@@ -83,6 +83,7 @@ int run_embedded(const EmbeddedOptions& options, EmbeddedResult* result) {
         std::cerr << "maptune run: " << err.what() << "\n";
         return 2;
     }
+    if (options.budget > 0) e.max_evaluations = options.budget;
     std::vector<std::uint64_t> seeds = !options.seeds.empty() ? options.seeds : e.seeds;
     const bool repeated = !seeds.empty();
     if (seeds.empty()) seeds.push_back(e.seed);

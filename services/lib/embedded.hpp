@@ -26,6 +26,9 @@ struct EmbeddedOptions {
     bool progress_bar = true;
     bool locality = true;            // false: sample_db's --no-locality (measurements)
     std::vector<std::uint64_t> seeds;  // empty: the experiment's `seeds`, else its one seed
+    // Evaluations per seed; 0: the experiment's `budget.evaluations`. A larger one on an
+    // existing run directory extends a finished run.
+    int budget = 0;
     // DDS-Security PKI (scripts/make-pki.sh); every service in the process uses its role's
     // identity. Empty: off.
     std::string dds_security;

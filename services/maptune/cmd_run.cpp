@@ -79,6 +79,10 @@ void add_run_command(CLI::App& app, int& exit_code) {
                     "optimizer seeds, e.g. 1,2,3: one run directory per seed (seed-<n>) sharing one store "
                     "(default: the experiment's seeds, else its one seed)")
         ->delimiter(',');
+    cmd->add_option("--budget", opt->budget,
+                    "evaluations per seed, 1..100000 (default: the experiment's budget.evaluations); "
+                    "a larger one on an existing --run-dir goes on from where that run stopped")
+        ->check(CLI::Range(1, 100000));
     cmd->add_flag("--no-validate", *no_validate, "skip the validation on the experiment's validate: views");
     cmd->add_flag("--no-report", *no_report, "skip the HTML report (<run-dir>/report/index.html)");
     cmd->callback([opt, no_validate, no_report, &exit_code] {

@@ -345,6 +345,49 @@ TEST_F(CliTest, RunWithSeedsValidatesOnHeldOutViewsAndValidateReusesTheStore) {
     EXPECT_NE(bad.err.find("run.yaml: missing"), std::string::npos) << bad.err;
 }
 
+// `maptune run --budget` overrides the experiment's evaluations, and a larger one on the same
+// run directory extends the finished run with exactly what an uninterrupted run would have done.
+TEST_F(CliTest, RunBudgetOverridesAndExtendsAFinishedRun) {
+    const std::string src = MAPTUNE_SOURCE_DIR;
+    std::ofstream(dir_ / "exp.yaml") << "name: budget\nspace: " << src << "/configs/spaces/lru_matcher.yaml\n"
+                                     << "dataset: {dir: d, generate: {preset: lab-tiny, runs: 1, submaps: 3, seed: 5}}\n"
+                                     << "view: complete\nbudget: {evaluations: 20}\noptimizer: {seed: 3}\n";
+    auto run = [&](const std::string& run_dir, int budget) {
+        // No --domain: the run leases a random one no other maptune process holds.
+        return maptune("run --analytic --no-progress --no-report --experiment " + (dir_ / "exp.yaml").string() +
+                       " --run-dir " + (dir_ / run_dir).string() + " --budget " + std::to_string(budget));
+    };
+    // The rows without their timing columns (wall_s, pair_s, elapsed_s differ from run to run).
+    auto rows = [&](const std::string& run_dir) {
+        std::istringstream in(slurp(dir_ / run_dir / "trials.csv"));
+        std::vector<std::string> out;
+        for (std::string line; std::getline(in, line);) {
+            std::vector<std::string> cells;
+            std::stringstream cs(line);
+            for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
+            std::string kept;
+            for (std::size_t i = 0; i < cells.size(); ++i)
+                if (i != 7 && i != 8 && i != 10) kept += cells[i] + ",";
+            out.push_back(kept);
+        }
+        return out;
+    };
+    const CliRun four = run("a", 4);
+    ASSERT_EQ(four.exit_code, 0) << four.out << four.err;
+    EXPECT_EQ(rows("a").size(), 5u);  // header + 4
+    EXPECT_NE(slurp(dir_ / "a" / "run.yaml").find("budget:\n  evaluations: 4"), std::string::npos);
+    const CliRun more = run("a", 7);
+    ASSERT_EQ(more.exit_code, 0) << more.out << more.err;
+    EXPECT_NE((more.out + more.err).find("resumed 4 evaluations"), std::string::npos) << more.out << more.err;
+    const CliRun whole = run("b", 7);
+    ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
+    EXPECT_EQ(rows("a").size(), 8u);
+    EXPECT_EQ(rows("a"), rows("b"));
+    const CliRun bad = maptune("run --experiment " + (dir_ / "exp.yaml").string() + " --budget 0");
+    EXPECT_EQ(bad.exit_code, 2) << bad.out << bad.err;
+    EXPECT_NE(bad.err.find("--budget"), std::string::npos) << bad.err;
+}
+
 // `maptune compare` end to end on a tiny simulated lab: two sets in a known order (x_1D
 // filters every keypoint), Table 5.2 layout in markdown with the reference column and tau,
 // JSON, and a second run answered from the store.
