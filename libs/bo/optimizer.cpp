@@ -195,7 +195,8 @@ Eigen::VectorXd Optimizer::next_design_point() {
     return fallback.size() > 0 ? fallback : make_point(design_.point(design_index_++)).u;
 }
 
-void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best, Eigen::VectorXd* raw) const {
+void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best, Eigen::VectorXd* raw,
+                           Eigen::VectorXd* low_fidelity) const {
     const int d = space_.dim();
     double worst = std::numeric_limits<double>::infinity();
     best = -std::numeric_limits<double>::infinity();
@@ -217,6 +218,15 @@ void Optimizer::model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best,
     }
 
     if (raw) *raw = y;
+    if (low_fidelity) {
+        low_fidelity->resize(0);
+        for (Eigen::Index k = 0; k < n; ++k) {
+            const Observation& o = observations_[static_cast<std::size_t>(k)];
+            if (!o.low_fidelity || o.failed) continue;
+            if (low_fidelity->size() == 0) *low_fidelity = Eigen::VectorXd::Zero(n);
+            (*low_fidelity)(k) = 1.0;
+        }
+    }
     if (options_.warping == OutputWarping::copula && n > 0) {
         y = copula(y);
         best = -std::numeric_limits<double>::infinity();
@@ -326,12 +336,12 @@ std::vector<PosteriorPoint> Optimizer::posterior(const std::vector<std::vector<d
     for (const auto& o : observations_) ok += o.failed ? 0 : 1;
     if (ok < 2 || hp_.length_scales.size() != space_.dim()) return {};
     Eigen::MatrixXd x;
-    Eigen::VectorXd y;
+    Eigen::VectorXd y, lf;
     double best = 0;
-    model_data(x, y, best);
+    model_data(x, y, best, nullptr, &lf);
     gp::GaussianProcess model(space_.dim(), main_gp_options(observations_.size()));
     model.set_hyperparameters(hp_);
-    if (!model.set_data(x, y)) return {};
+    if (!model.set_data(x, y, lf)) return {};
     Eigen::MatrixXd g(space_.dim(), static_cast<Eigen::Index>(points.size()));
     for (std::size_t i = 0; i < points.size(); ++i) {
         g.col(static_cast<Eigen::Index>(i)) = space_.to_model_input(space_.from_values(space_.canonical(points[i])));
@@ -357,8 +367,8 @@ Optimizer::Model Optimizer::build_model() {
     Eigen::MatrixXd x;
     Eigen::VectorXd y;
     double best = 0;
-    Eigen::VectorXd raw;
-    model_data(x, y, best, &raw);
+    Eigen::VectorXd raw, lf;
+    model_data(x, y, best, &raw, &lf);
     const auto n = x.cols();
     gp::GpOptions gp_options = main_gp_options(observations_.size());
     // After the first fit the previous optimum is a good start; the fixed one only costs time.
@@ -373,14 +383,15 @@ Optimizer::Model Optimizer::build_model() {
         // Between refits (same hyperparameters) new observations enter the cached factor by
         // O(n²) appends; only K⁻¹y is recomputed for the outputs (the warping and the worst
         // value may have moved).
-        for (Eigen::Index i = static_cast<Eigen::Index>(cache_n_); i < n; ++i) cache_->append(x.col(i), y(i));
+        for (Eigen::Index i = static_cast<Eigen::Index>(cache_n_); i < n; ++i)
+            cache_->append(x.col(i), y(i), lf.size() > 0 && lf(i) > 0);
         cache_->set_outputs(y);
         cache_n_ = nu;
         model = *cache_;
         ++stats_.appends;
     } else {
         model.set_hyperparameters(hp_);
-        model.set_data(x, y);
+        model.set_data(x, y, lf);
         ++stats_.factorizations;
     }
     if (refit && n >= 2) {
@@ -406,7 +417,7 @@ Optimizer::Model Optimizer::build_model() {
                 const auto warm = warp_hp_.find(alpha);  // its own last fit: the warm start
                 gp::GaussianProcess g(d, gp_options);
                 g.set_hyperparameters(warm != warp_hp_.end() ? warm->second : hp_);
-                if (!g.set_data(x, z)) continue;
+                if (!g.set_data(x, z, lf)) continue;
                 const gp::FitResult fr = g.fit(mix(options_.seed, 1000 + nu));
                 warp_hp_[alpha] = fr.hyperparameters;
                 const double score = -fr.neg_log_posterior - static_cast<double>(n) * std::log(g.output_scale()) + log_jac;
@@ -460,22 +471,28 @@ std::optional<PredictedBest> Optimizer::predicted_best() const {
     if (ok.size() < 2 || hp_.length_scales.size() != space_.dim()) return std::nullopt;
     const auto n = static_cast<Eigen::Index>(ok.size());
     Eigen::MatrixXd x(space_.dim(), n);
-    Eigen::VectorXd y(n);
+    Eigen::VectorXd y(n), lf = Eigen::VectorXd::Zero(n);
     const Warp w = current_warp();
     for (Eigen::Index k = 0; k < n; ++k) {
-        x.col(k) = observed_points_[ok[static_cast<std::size_t>(k)]].g;
-        y(k) = w.apply(internal(observations_[ok[static_cast<std::size_t>(k)]].value));
+        const std::size_t i = ok[static_cast<std::size_t>(k)];
+        x.col(k) = observed_points_[i].g;
+        y(k) = w.apply(internal(observations_[i].value));
+        lf(k) = observations_[i].low_fidelity ? 1.0 : 0.0;
     }
     const auto design = static_cast<std::size_t>(initial_points());
     const auto leading = static_cast<std::size_t>(
         std::count_if(ok.begin(), ok.end(), [&](std::size_t i) { return i < design; }));
     gp::GaussianProcess model(space_.dim(), main_gp_options(leading));
     model.set_hyperparameters(hp_);
-    if (!model.set_data(x, y)) return std::nullopt;
+    if (!model.set_data(x, y, lf)) return std::nullopt;
     Eigen::VectorXd mean, var;
     model.predict(x, mean, var);
-    Eigen::Index best = 0;
-    mean.maxCoeff(&best);
+    // Only a set evaluated in full can be the best: an estimate never is.
+    Eigen::Index best = -1;
+    for (Eigen::Index k = 0; k < n; ++k) {
+        if (lf(k) == 0.0 && (best < 0 || mean(k) > mean(best))) best = k;
+    }
+    if (best < 0) return std::nullopt;
     PredictedBest out;
     out.values = observations_[ok[static_cast<std::size_t>(best)]].values;
     const double v = w.invert(mean(best));

@@ -114,6 +114,10 @@ struct Observation {
     double value = 0.0;  // objective value (ignored when failed)
     bool failed = false;
     std::string reason;  // why it failed (crash, timeout, ...)
+    // An estimate, not a measurement of the objective (multi-fidelity: a proposal stopped on a
+    // subset of the pairs): the GP gives such values a noise of their own, learnt with its
+    // other hyperparameters, and never predicts one as the best.
+    bool low_fidelity = false;
 };
 
 class Optimizer {
@@ -215,7 +219,9 @@ class Optimizer {
     // Model inputs and internal values of every observation (failures at the worst value)
     // and the best internal value.
     // `raw` (when given) receives the values before any warping.
-    void model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best, Eigen::VectorXd* raw = nullptr) const;
+    // `low_fidelity` (when given) receives 1 for low-fidelity observations, or stays empty if none.
+    void model_data(Eigen::MatrixXd& x, Eigen::VectorXd& y, double& best, Eigen::VectorXd* raw = nullptr,
+                    Eigen::VectorXd* low_fidelity = nullptr) const;
     Warp current_warp() const;
     // The offset factor of the log warping in use (0: identity): fixed, or the last choice.
     double warp_alpha() const;

@@ -27,6 +27,10 @@ const double kSignalPriorMean = 0.0;  // standardized outputs: signal variance n
 const double kSignalPriorSd = 1.5;
 const double kNoisePriorMean = std::log(1e-4);  // near-deterministic objectives are common
 const double kNoisePriorSd = 3.0;
+// Low-fidelity extra noise: a subset's estimate may stray by a good part of the outputs' spread.
+const double kLowFidelityPriorMean = std::log(0.05);
+const double kLowFidelityPriorSd = 3.0;
+const double kMaxLowFidelityNoise = 10.0;
 
 const double kMaxJitter = 1e-2;
 
@@ -34,8 +38,14 @@ struct Bounds {
     Eigen::VectorXd lower, upper;
 };
 
-Bounds log_bounds(int dim, const FitOptions& o) {
-    Bounds b{Eigen::VectorXd(dim + 2), Eigen::VectorXd(dim + 2)};
+// With low_fidelity, one more entry: log of Hyperparameters::low_fidelity_noise.
+Bounds log_bounds(int dim, const FitOptions& o, bool low_fidelity) {
+    const int size = dim + (low_fidelity ? 3 : 2);
+    Bounds b{Eigen::VectorXd(size), Eigen::VectorXd(size)};
+    if (low_fidelity) {
+        b.lower(dim + 2) = std::log(o.min_noise_variance);
+        b.upper(dim + 2) = std::log(kMaxLowFidelityNoise);
+    }
     b.lower.head(dim).setConstant(std::log(o.min_length_scale));
     b.upper.head(dim).setConstant(std::log(o.max_length_scale));
     b.lower(dim) = std::log(o.min_signal_variance);
@@ -58,6 +68,7 @@ double add_prior(const Eigen::VectorXd& theta, int dim, const FitOptions& o,
     for (int j = 0; j < dim; ++j) term(j, ls_mean, o.length_scale_prior_sd);
     term(dim, kSignalPriorMean, kSignalPriorSd);
     term(dim + 1, kNoisePriorMean, kNoisePriorSd);
+    if (theta.size() > dim + 2) term(dim + 2, kLowFidelityPriorMean, kLowFidelityPriorSd);
     return nlp;
 }
 
@@ -68,12 +79,16 @@ struct NlpWorkspace {
     int threads = 1;  // inside one evaluation (the full-data refinement; the starts are parallel)
 };
 
+// low_fidelity (null or one 0/1 entry per point): theta has one more entry, the log of the
+// extra noise on the flagged points.
 double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                          const Eigen::VectorXd& theta, const FitOptions& options,
-                         Eigen::VectorXd* grad, CholeskyBackend backend, NlpWorkspace& ws) {
+                         Eigen::VectorXd* grad, CholeskyBackend backend, NlpWorkspace& ws,
+                         const Eigen::VectorXd* low_fidelity = nullptr) {
     const auto dim = static_cast<int>(x.rows());
     const Eigen::Index n = x.cols();
-    const Hyperparameters hp = Hyperparameters::from_log(theta);
+    const Hyperparameters hp = Hyperparameters::from_log(theta.head(dim + 2));
+    const double lf_noise = low_fidelity ? std::exp(theta(dim + 2)) : 0.0;
     if (grad != nullptr) grad->setZero(theta.size());
 
     const Eigen::ArrayXd inv_l = hp.length_scales.array().inverse();
@@ -104,6 +119,9 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                                       grad != nullptr ? ws.q.middleCols(c0, w).data() : nullptr);
         ws.k.middleCols(c0, w) = ws.kf.middleCols(c0, w);
         for (Eigen::Index j = 0; j < w; ++j) ws.k(c0 + j, c0 + j) += hp.noise_variance;
+        if (low_fidelity) {
+            for (Eigen::Index j = 0; j < w; ++j) ws.k(c0 + j, c0 + j) += lf_noise * (*low_fidelity)(c0 + j);
+        }
     });
 
     double log_det = 0.0;
@@ -133,7 +151,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
         // Per slab: W, Σ W∘kf (dK/dlog s² = kf), tr W, and for the length scales
         // dK/dlog l_j = Q ∘ D_j with D_j = (z_j,a − z_j,b)²: the sum over D_j reduces to the
         // column sums of M = W ∘ Q and the product z M (M is symmetric).
-        Eigen::VectorXd signal_part(slabs), trace_part(slabs), col_sums(n);
+        Eigen::VectorXd signal_part(slabs), trace_part(slabs), lf_part = Eigen::VectorXd::Zero(slabs), col_sums(n);
         Eigen::MatrixXd zm(dim, n);
         parallel_for(slabs, threads, [&](int b) {
             const auto [c0, w] = slab(b);
@@ -142,6 +160,9 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
             wb.noalias() += alpha * alpha.segment(c0, w).transpose();
             signal_part(b) = (wb.array() * ws.kf.middleCols(c0, w).array()).sum();
             trace_part(b) = wb.middleRows(c0, w).trace();
+            if (low_fidelity) {
+                for (Eigen::Index j = 0; j < w; ++j) lf_part(b) += (*low_fidelity)(c0 + j) * wb(c0 + j, j);
+            }
             auto mb = ws.q.middleCols(c0, w);
             mb.array() *= wb.array();
             col_sums.segment(c0, w) = mb.colwise().sum().transpose();
@@ -149,6 +170,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
         });
         (*grad)(dim) = -0.5 * signal_part.sum();
         (*grad)(dim + 1) = -0.5 * hp.noise_variance * trace_part.sum();
+        if (low_fidelity) (*grad)(dim + 2) = -0.5 * lf_noise * lf_part.sum();
         for (int j = 0; j < dim; ++j) {
             const double g =
                 ws.z.row(j).array().square().matrix().dot(col_sums) - ws.z.row(j).dot(zm.row(j));
@@ -166,6 +188,7 @@ struct Objective {
     const Eigen::VectorXd& y;
     const FitOptions& options;
     CholeskyBackend backend;
+    const Eigen::VectorXd* low_fidelity = nullptr;
     NlpWorkspace workspace;
     int evaluations = 0;
     double best_value = std::numeric_limits<double>::infinity();
@@ -173,7 +196,7 @@ struct Objective {
 
     double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd& grad) {
         ++evaluations;
-        const double value = neg_log_posterior(x, y, theta, options, &grad, backend, workspace);
+        const double value = neg_log_posterior(x, y, theta, options, &grad, backend, workspace, low_fidelity);
         if (value < best_value) {
             best_value = value;
             best_theta = theta;
@@ -192,9 +215,9 @@ double length_scale_prior_mean(int dim) {
 
 double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                          const Eigen::VectorXd& theta, const FitOptions& options,
-                         Eigen::VectorXd* grad, CholeskyBackend backend) {
+                         Eigen::VectorXd* grad, CholeskyBackend backend, const Eigen::VectorXd* low_fidelity) {
     NlpWorkspace ws;
-    return neg_log_posterior(x, y, theta, options, grad, backend, ws);
+    return neg_log_posterior(x, y, theta, options, grad, backend, ws, low_fidelity);
 }
 
 GaussianProcess::GaussianProcess(int dim, GpOptions options)
@@ -211,6 +234,7 @@ GaussianProcess::GaussianProcess(const GaussianProcess& other)
       x_(other.x_),
       y_(other.y_),
       alpha_(other.alpha_),
+      low_fidelity_(other.low_fidelity_),
       y_offset_(other.y_offset_),
       y_scale_(other.y_scale_),
       jitter_(other.jitter_),
@@ -221,11 +245,19 @@ GaussianProcess& GaussianProcess::operator=(const GaussianProcess& other) {
     return *this;
 }
 
-bool GaussianProcess::set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y) {
-    if (x.rows() != dim_ || x.cols() != y.size()) {
+bool GaussianProcess::set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                               const Eigen::VectorXd& low_fidelity) {
+    if (x.rows() != dim_ || x.cols() != y.size() ||
+        (low_fidelity.size() != 0 && low_fidelity.size() != y.size())) {
         throw std::invalid_argument("GaussianProcess::set_data: shape mismatch");
     }
     x_ = x;
+    // Without a flagged point the model is exactly the plain one (no extra hyperparameter).
+    if (low_fidelity.size() > 0 && (low_fidelity.array() != 0.0).any()) {
+        low_fidelity_ = (low_fidelity.array() != 0.0).cast<double>().matrix();
+    } else {
+        low_fidelity_.resize(0);
+    }
     standardize(y);
     return refactorize();
 }
@@ -271,6 +303,7 @@ bool GaussianProcess::refactorize() {
     }
     Eigen::MatrixXd k = matern52(x_, x_, hp_);
     k.diagonal().array() += hp_.noise_variance;
+    if (has_low_fidelity()) k.diagonal() += hp_.low_fidelity_noise * low_fidelity_;
     double jitter = 1e-10 * hp_.signal_variance;
     while (!chol_->compute(k)) {
         if (jitter > kMaxJitter * hp_.signal_variance) return false;
@@ -284,10 +317,16 @@ bool GaussianProcess::refactorize() {
 
 void GaussianProcess::update_alpha() { alpha_ = chol_->solve(y_); }
 
-bool GaussianProcess::append(const Eigen::VectorXd& x, double y) {
+bool GaussianProcess::append(const Eigen::VectorXd& x, double y, bool low_fidelity) {
     const Eigen::Index n = x_.cols();
     const Eigen::VectorXd cross = matern52(x_, x, hp_).col(0);
-    const double diag = hp_.signal_variance + hp_.noise_variance + jitter_;
+    const double diag = hp_.signal_variance + hp_.noise_variance + jitter_ +
+                        (low_fidelity ? hp_.low_fidelity_noise : 0.0);
+    if (low_fidelity || has_low_fidelity()) {
+        if (!has_low_fidelity()) low_fidelity_ = Eigen::VectorXd::Zero(n);
+        low_fidelity_.conservativeResize(n + 1);
+        low_fidelity_(n) = low_fidelity ? 1.0 : 0.0;
+    }
     x_.conservativeResize(Eigen::NoChange, n + 1);
     x_.col(n) = x;
     y_.conservativeResize(n + 1);
@@ -301,6 +340,7 @@ void GaussianProcess::truncate(Eigen::Index n) {
     if (n >= x_.cols()) return;
     x_.conservativeResize(Eigen::NoChange, n);
     y_.conservativeResize(n);
+    if (has_low_fidelity()) low_fidelity_.conservativeResize(n);
     chol_->truncate(n);
     update_alpha();
 }
@@ -316,7 +356,8 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
     // Above max_points each step is O(n³): a random subset estimates the hyperparameters well
     // at a fraction of the cost; the final model still conditions on all points.
     Eigen::MatrixXd xs;
-    Eigen::VectorXd ys;
+    Eigen::VectorXd ys, lfs;
+    const bool lf = has_low_fidelity();
     if (n > o.max_points) {
         std::vector<Eigen::Index> idx(static_cast<std::size_t>(n));
         std::iota(idx.begin(), idx.end(), 0);
@@ -326,25 +367,36 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         }
         xs.resize(dim_, o.max_points);
         ys.resize(o.max_points);
+        if (lf) lfs.resize(o.max_points);
         for (Eigen::Index i = 0; i < o.max_points; ++i) {
             xs.col(i) = x_.col(idx[static_cast<std::size_t>(i)]);
             ys(i) = y_(idx[static_cast<std::size_t>(i)]);
+            if (lf) lfs(i) = low_fidelity_(idx[static_cast<std::size_t>(i)]);
         }
     } else {
         xs = x_;
         ys = y_;
+        lfs = low_fidelity_;
     }
     result.points_used = xs.cols();
 
-    const Bounds bounds = log_bounds(dim_, o);
+    const Bounds bounds = log_bounds(dim_, o, lf);
+    // With low-fidelity points every start carries the log of their extra noise too.
+    const double lf_start = std::log(hp_.low_fidelity_noise > 0 ? hp_.low_fidelity_noise : 0.05);
+    auto with_lf = [&](Eigen::VectorXd t, double log_lf) {
+        if (!lf) return t;
+        t.conservativeResize(dim_ + 3);
+        t(dim_ + 2) = log_lf;
+        return t;
+    };
     std::vector<Eigen::VectorXd> starts;
-    starts.push_back(hp_.to_log());  // warm start: the previous optimum
+    starts.push_back(with_lf(hp_.to_log(), lf_start));  // warm start: the previous optimum
     if (o.fixed_start) {
         // A fixed, moderately smooth start independent of history.
         Hyperparameters h = Hyperparameters::defaults(dim_);
         h.length_scales.setConstant(0.3 * std::sqrt(static_cast<double>(dim_)));
         h.noise_variance = 1e-3;
-        starts.push_back(h.to_log());
+        starts.push_back(with_lf(h.to_log(), std::log(0.05)));
     }
     std::normal_distribution<double> normal(0.0, 1.0);
     for (int s = 0; s < o.random_starts; ++s) {
@@ -355,7 +407,8 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         }
         t(dim_) = kSignalPriorMean + 0.5 * normal(rng);
         t(dim_ + 1) = std::log(1e-3) + 1.0 * normal(rng);
-        starts.push_back(t);
+        // Drawn only with low-fidelity points: a plain fit's random starts stay as they were.
+        starts.push_back(lf ? with_lf(t, std::log(0.05) + 1.0 * normal(rng)) : t);
     }
 
     LBFGSpp::LBFGSBParam<double> param;
@@ -378,7 +431,7 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         LBFGSpp::LBFGSBSolver<double> solver(param);
         Eigen::VectorXd theta =
             starts[static_cast<std::size_t>(s)].cwiseMax(bounds.lower).cwiseMin(bounds.upper);
-        Objective objective{xs, ys, o, options_.backend};
+        Objective objective{xs, ys, o, options_.backend, lf ? &lfs : nullptr};
         double fx = 0.0;
         try {
             solver.minimize(objective, theta, fx, bounds.lower, bounds.upper);
@@ -405,7 +458,7 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         refine.max_iterations = o.refine_iterations;
         LBFGSpp::LBFGSBSolver<double> solver(refine);
         Eigen::VectorXd theta = best_theta;
-        Objective objective{x_, y_, o, options_.backend};
+        Objective objective{x_, y_, o, options_.backend, lf ? &low_fidelity_ : nullptr};
         objective.workspace.threads = resolve_threads(options_.threads);
         double fx = 0.0;
         try {
@@ -419,7 +472,8 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         result.points_used = n;
     }
     result.neg_log_posterior = best;
-    result.hyperparameters = Hyperparameters::from_log(best_theta);
+    result.hyperparameters = Hyperparameters::from_log(best_theta.head(dim_ + 2));
+    result.hyperparameters.low_fidelity_noise = lf ? std::exp(best_theta(dim_ + 2)) : hp_.low_fidelity_noise;
     if (!set_hyperparameters(result.hyperparameters)) set_hyperparameters(hp_);
     return result;
 }

@@ -77,10 +77,12 @@ struct PointPrediction {
 
 // Negative log marginal likelihood (plus negative log prior when options.use_priors) of
 // standardized outputs y at inputs x (d×n) for log-space hyperparameters theta, with its
-// analytic gradient when grad is not null. Exposed for tests and benchmarks.
+// analytic gradient when grad is not null. Exposed for tests and benchmarks. With
+// low_fidelity (one 0/1 entry per point), theta has one more entry: log low_fidelity_noise.
 double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                          const Eigen::VectorXd& theta, const FitOptions& options,
-                         Eigen::VectorXd* grad, CholeskyBackend backend = CholeskyBackend::eigen);
+                         Eigen::VectorXd* grad, CholeskyBackend backend = CholeskyBackend::eigen,
+                         const Eigen::VectorXd* low_fidelity = nullptr);
 
 // Instruction set the batched kernels (simd_kernels.cpp) were built for: "avx512", "avx2",
 // "sse2" or "generic" (CMake options MAPTUNE_GP_AVX2, MAPTUNE_GP_AVX512).
@@ -109,14 +111,18 @@ class GaussianProcess {
 
     // Replaces the data (x: d×n in the unit cube), recomputes the output standardization and
     // factorizes. False if the covariance could not be factorized even with jitter.
-    bool set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y);
+    // low_fidelity (empty, or one entry per point, 1 = low fidelity): those points carry the
+    // extra noise Hyperparameters::low_fidelity_noise, which fit() then learns.
+    bool set_data(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                  const Eigen::VectorXd& low_fidelity = Eigen::VectorXd());
     // Replaces the outputs only (same inputs, in order): new standardization and K⁻¹y in O(n²)
     // with the existing factor, which depends on the inputs and hyperparameters alone.
     bool set_outputs(const Eigen::VectorXd& y);
     bool set_hyperparameters(const Hyperparameters& hp);
     // Adds one observation in O(n²), keeping hyperparameters and standardization (used for
     // fantasized pending points and between refits).
-    bool append(const Eigen::VectorXd& x, double y);
+    bool append(const Eigen::VectorXd& x, double y, bool low_fidelity = false);
+    bool has_low_fidelity() const { return low_fidelity_.size() > 0; }
     // Drops trailing observations in O(n²) (solve only): the factor's leading block is kept.
     void truncate(Eigen::Index n);
 
@@ -143,6 +149,7 @@ class GaussianProcess {
     Eigen::MatrixXd x_;      // d×n inputs
     Eigen::VectorXd y_;      // standardized outputs
     Eigen::VectorXd alpha_;  // K⁻¹ y
+    Eigen::VectorXd low_fidelity_;  // empty, or 1 per low-fidelity point (0 otherwise)
     double y_offset_ = 0.0;
     double y_scale_ = 1.0;
     double jitter_ = 0.0;  // added to the diagonal when K is numerically singular

@@ -12,6 +12,10 @@ struct Hyperparameters {
     Eigen::VectorXd length_scales;  // one per input dimension, in unit-cube units
     double signal_variance = 1.0;   // standardized output units squared
     double noise_variance = 1e-4;   // standardized output units squared
+    // Extra noise of the observations set_data marks low-fidelity (multi-fidelity estimates
+    // from a subset of the pairs), standardized units squared; fitted only when there are such
+    // observations, and not part of to_log().
+    double low_fidelity_noise = 0.0;
 
     static Hyperparameters defaults(int dim);
     // Log-space vector [log l_1 .. log l_d, log signal_variance, log noise_variance]: the

@@ -56,7 +56,7 @@ void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
     std::vector<std::string> origins;
     for (const auto& r : trials) {
         history.push_back({experiment::optimizer_values(experiment_, r.params),
-                           experiment::record_objective(experiment_, r), r.failed, r.error});
+                           experiment::record_objective(experiment_, r), r.failed, r.error, r.fidelity != 1});
         origins.push_back(r.origin);
         add(r);
     }
@@ -273,7 +273,8 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
     }
     optimizer_.cancel(f.proposal);
     optimizer_.add_observation({experiment::optimizer_values(experiment_, rec.params),
-                                experiment::record_objective(experiment_, rec), rec.failed, rec.error});
+                                experiment::record_objective(experiment_, rec), rec.failed, rec.error,
+                                rec.fidelity != 1});
     add(rec);
     if (const auto pb = optimizer_.predicted_best()) {
         summary_.predicted_best = experiment::full_set(experiment_, pb->values);

@@ -400,6 +400,47 @@ TEST(OptimizerTest, MixedIntegerLogSpaceProposalsStayValid) {
 namespace maptune::bo {
 namespace {
 
+// Multi-fidelity (issue 16): a proposal stopped on a subset enters as an estimate. The model
+// learns a noise for such values and never predicts one of them as the best, even when its
+// estimate is the highest value seen.
+TEST(OptimizerTest, LowFidelityEstimatesAreNoisyAndNeverThePredictedBest) {
+    Optimizer opt({{"x", 0.0, 1.0}, {"y", 0.0, 1.0}}, OptimizerOptions{});
+    auto f = [](double x, double y) { return std::exp(-8 * ((x - 0.3) * (x - 0.3) + (y - 0.6) * (y - 0.6))); };
+    for (int i = 0; i < 16; ++i) {
+        const auto p = opt.ask(1).front();
+        opt.tell(p.id, f(p.values[0], p.values[1]));
+    }
+    // Estimates that stray by ±0.3, one of them above every measured value.
+    for (int i = 0; i < 12; ++i) {
+        const double x = 0.05 + 0.075 * i, y = 0.9 - 0.07 * i;
+        Observation o;
+        o.values = {x, y};
+        o.value = f(x, y) + (i % 2 == 0 ? 0.3 : -0.3);
+        o.low_fidelity = true;
+        opt.add_observation(o);
+    }
+    Observation top;
+    top.values = {0.31, 0.59};
+    top.value = 1.5;
+    top.low_fidelity = true;
+    opt.add_observation(top);
+    opt.fit();
+    EXPECT_GT(opt.hyperparameters().low_fidelity_noise, 10.0 * opt.hyperparameters().noise_variance);
+    const auto pb = opt.predicted_best();
+    ASSERT_TRUE(pb.has_value());
+    EXPECT_FALSE(pb->values[0] == 0.31 && pb->values[1] == 0.59);
+    EXPECT_LT(pb->mean, 1.2);
+    // Rebuilt from the same observations, the model is the same.
+    Optimizer again({{"x", 0.0, 1.0}, {"y", 0.0, 1.0}}, OptimizerOptions{});
+    std::vector<std::string> origins(opt.observations().size(), "model");
+    for (std::size_t i = 0; i < 16; ++i) origins[i] = i < static_cast<std::size_t>(opt.initial_points()) ? "initial" : "model";
+    again.replay(opt.observations(), origins);
+    again.fit();
+    const auto pb2 = again.predicted_best();
+    ASSERT_TRUE(pb2.has_value());
+    EXPECT_EQ(pb2->values, pb->values);
+}
+
 TEST(OptimizerTest, PredictedBestIsTheObservationWithTheHighestPosteriorMean) {
     // Maximize a smooth 1-D bump; noise-free observations: the model agrees with the data.
     Optimizer opt({{"x", 0.0, 1.0}}, OptimizerOptions{});

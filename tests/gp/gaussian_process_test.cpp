@@ -351,6 +351,100 @@ TEST_P(GradientTest, LogPosteriorGradientMatchesFiniteDifferences) {
 
 INSTANTIATE_TEST_SUITE_P(Priors, GradientTest, ::testing::Bool());
 
+// The extra noise of low-fidelity points: its gradient component too.
+TEST(GaussianProcessTest, LowFidelityNoiseGradientMatchesFiniteDifferences) {
+    std::mt19937_64 rng(19);
+    const Eigen::MatrixXd x = uniform_points(3, 30, rng);
+    Eigen::VectorXd y(30), lf = Eigen::VectorXd::Zero(30);
+    for (Eigen::Index i = 0; i < 30; ++i) {
+        y(i) = std::sin(4.0 * x(0, i)) + x(1, i);
+        if (i % 3 == 0) lf(i) = 1.0;
+    }
+    y = (y.array() - y.mean()) / std::sqrt((y.array() - y.mean()).square().mean());
+    FitOptions options;
+    Eigen::VectorXd theta(6);
+    theta << std::log(0.3), std::log(0.7), std::log(1.5), std::log(0.9), std::log(1e-3), std::log(0.04);
+    Eigen::VectorXd grad;
+    neg_log_posterior(x, y, theta, options, &grad, CholeskyBackend::eigen, &lf);
+    ASSERT_EQ(grad.size(), 6);
+    EXPECT_NE(grad(5), 0.0);
+    for (Eigen::Index i = 0; i < theta.size(); ++i) {
+        const double h = 1e-5;
+        Eigen::VectorXd tp = theta, tm = theta;
+        tp(i) += h;
+        tm(i) -= h;
+        const double fd = (neg_log_posterior(x, y, tp, options, nullptr, CholeskyBackend::eigen, &lf) -
+                           neg_log_posterior(x, y, tm, options, nullptr, CholeskyBackend::eigen, &lf)) /
+                          (2.0 * h);
+        EXPECT_NEAR(grad(i), fd, 1e-5 * std::max(1.0, std::abs(fd))) << "component " << i;
+    }
+}
+
+// Multi-fidelity (issue 16): estimates from a subset of the pairs stray from the objective.
+// Marked low-fidelity, they get a noise of their own, learnt by the fit, and the model follows
+// the exact points; unmarked, the same data make the model worse where it matters.
+TEST(GaussianProcessTest, LowFidelityPointsGetANoiseOfTheirOwn) {
+    std::mt19937_64 rng(23);
+    auto f = [](const Eigen::VectorXd& p) { return std::sin(5.0 * p(0)) + 0.5 * std::cos(3.0 * p(1)); };
+    const Eigen::MatrixXd x = uniform_points(2, 60, rng);
+    std::normal_distribution<double> noise(0.0, 0.4);
+    Eigen::VectorXd y(60), lf = Eigen::VectorXd::Zero(60);
+    for (Eigen::Index i = 0; i < 60; ++i) {
+        y(i) = f(x.col(i));
+        if (i >= 20) {  // 40 estimates around 20 exact values
+            lf(i) = 1.0;
+            y(i) += noise(rng);
+        }
+    }
+    const Eigen::MatrixXd xs = uniform_points(2, 200, rng);
+    auto rmse = [&](const GaussianProcess& gp) {
+        Eigen::VectorXd mean, var;
+        gp.predict(xs, mean, var);
+        double s = 0;
+        for (Eigen::Index i = 0; i < xs.cols(); ++i) s += std::pow(mean(i) - f(xs.col(i)), 2);
+        return std::sqrt(s / static_cast<double>(xs.cols()));
+    };
+    GaussianProcess marked(2), plain(2);
+    marked.set_data(x, y, lf);
+    plain.set_data(x, y);
+    EXPECT_TRUE(marked.has_low_fidelity());
+    EXPECT_FALSE(plain.has_low_fidelity());
+    marked.fit(3);
+    plain.fit(3);
+    const Hyperparameters& hp = marked.hyperparameters();
+    // 0.4² in the outputs' units, standardized by their spread (~0.8): ~0.25.
+    EXPECT_GT(hp.low_fidelity_noise, 0.05);
+    EXPECT_LT(hp.low_fidelity_noise, 1.0);
+    EXPECT_GT(hp.low_fidelity_noise, 20.0 * hp.noise_variance);
+    // At the exact points the marked model stays close to the values.
+    Eigen::VectorXd mean, var;
+    marked.predict(x.leftCols(20), mean, var);
+    EXPECT_LT((mean - y.head(20)).cwiseAbs().maxCoeff(), 0.1);
+    EXPECT_LT(rmse(marked), rmse(plain));
+
+    // Appending a marked point equals a fresh model with the same marks.
+    GaussianProcess inc(2), fresh(2);
+    inc.set_hyperparameters(hp);
+    fresh.set_hyperparameters(hp);
+    inc.set_data(x.leftCols(20), y.head(20));
+    for (Eigen::Index i = 20; i < 60; ++i) inc.append(x.col(i), y(i), true);
+    inc.set_outputs(y);  // the standardization of all 60, as the fresh model's
+    fresh.set_data(x, y, lf);
+    Eigen::VectorXd m1, v1, m2, v2;
+    inc.predict(xs, m1, v1);
+    fresh.predict(xs, m2, v2);
+    EXPECT_LT((m1 - m2).cwiseAbs().maxCoeff(), 1e-8);
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-8);
+
+    // No marked point: exactly the plain model and fit.
+    GaussianProcess zeros(2);
+    zeros.set_data(x, y, Eigen::VectorXd::Zero(60));
+    EXPECT_FALSE(zeros.has_low_fidelity());
+    GaussianProcess again(2);
+    again.set_data(x, y);
+    EXPECT_EQ(zeros.fit(3).neg_log_posterior, again.fit(3).neg_log_posterior);
+}
+
 TEST(GaussianProcessTest, InputGradientsMatchFiniteDifferences) {
     std::mt19937_64 rng(10);
     const Eigen::MatrixXd x = uniform_points(3, 20, rng);
