@@ -78,14 +78,19 @@ void RunDirectory::append_hyperparameters(int evaluation, const gp::Hyperparamet
     std::error_code ec;
     const bool fresh = !fs::exists(file, ec) || fs::file_size(file, ec) == 0;
     std::ofstream out(file, std::ios::app);
+    // Multi-fidelity runs also record the extra noise of the subset's estimates (the column
+    // depends on the experiment only, so a resumed run keeps the header it started with).
+    const bool low_fidelity = experiment_.fidelity_subset > 0;
     if (fresh) {
         out << "evaluation,signal_variance,noise_variance";
         for (const auto& name : names) out << ",length_scale_" << name;
+        if (low_fidelity) out << ",low_fidelity_noise";
         out << "\n";
     }
     out << evaluation << "," << params::format_double(hp.signal_variance) << ","
         << params::format_double(hp.noise_variance);
     for (Eigen::Index i = 0; i < hp.length_scales.size(); ++i) out << "," << params::format_double(hp.length_scales(i));
+    if (low_fidelity) out << "," << params::format_double(hp.low_fidelity_noise);
     out << "\n";
 }
 

@@ -167,6 +167,7 @@ void OptimizerService::publish(const tuning::TuningRun& run, const EvaluationRec
     for (Eigen::Index i = 0; i < hp.length_scales.size() && i < static_cast<Eigen::Index>(names.size()); ++i) {
         add("length_scale_" + names[static_cast<std::size_t>(i)], hp.length_scales(i));
     }
+    if (options_.experiment.fidelity_subset > 0) add("low_fidelity_noise", hp.low_fidelity_noise);
     st.gp_hyperparameters(hpv);
     status_.write(st);
 

@@ -453,6 +453,15 @@ TEST_F(FidelityTest, HopelessProposalsStopOnTheSubsetAndPromisingOnesGoOn) {
     // after recalling the best's subset answers (trials.csv keeps none).
     tuning::RunDirectory files(dir_ / "mf", e, {"core", "d", "dn", "m", "v", "now"});
     files.write_results(run.summary());
+    // The model gave the stopped proposal's estimate a noise of its own; the run records it.
+    EXPECT_GT(run.hyperparameters().low_fidelity_noise, 0.0);
+    files.append_hyperparameters(3, run.hyperparameters());
+    {
+        std::ifstream in(dir_ / "mf" / "gp_hyperparameters.csv");
+        std::string header;
+        std::getline(in, header);
+        EXPECT_NE(header.find(",low_fidelity_noise"), std::string::npos) << header;
+    }
     const auto trials = experiment::read_trials_csv(files.trials_file(), e.space);
     ASSERT_EQ(trials.size(), 3u);
     EXPECT_EQ(trials[1].fidelity, 4);
