@@ -17,6 +17,13 @@ double mean_pair_seconds(const std::vector<store::PairRecord>& pairs) {
     return std::round(seconds / static_cast<double>(pairs.size()) * 1e4) / 1e4;
 }
 
+// What the model learns from an evaluation, live or read back from trials.csv alike; a
+// proposal stopped on the subset (fidelity k ≠ 1) is an estimate.
+bo::Observation observation(const experiment::Experiment& e, const EvaluationRecord& r) {
+    return {experiment::optimizer_values(e, r.params), experiment::record_objective(e, r), r.failed, r.error,
+            r.fidelity != 1};
+}
+
 }  // namespace
 
 TuningRun::TuningRun(experiment::Experiment experiment, TuningOptions options, Scorer scorer, double m_star)
@@ -55,8 +62,7 @@ void TuningRun::resume(const std::vector<EvaluationRecord>& trials) {
     std::vector<bo::Observation> history;
     std::vector<std::string> origins;
     for (const auto& r : trials) {
-        history.push_back({experiment::optimizer_values(experiment_, r.params),
-                           experiment::record_objective(experiment_, r), r.failed, r.error, r.fidelity != 1});
+        history.push_back(observation(experiment_, r));
         origins.push_back(r.origin);
         add(r);
     }
@@ -272,9 +278,7 @@ ReplyOutcome TuningRun::tell(const Reply& reply, double now_s, EvaluationRecord*
         }
     }
     optimizer_.cancel(f.proposal);
-    optimizer_.add_observation({experiment::optimizer_values(experiment_, rec.params),
-                                experiment::record_objective(experiment_, rec), rec.failed, rec.error,
-                                rec.fidelity != 1});
+    optimizer_.add_observation(observation(experiment_, rec));
     add(rec);
     if (const auto pb = optimizer_.predicted_best()) {
         summary_.predicted_best = experiment::full_set(experiment_, pb->values);
