@@ -406,27 +406,67 @@ Optimizer::Model Optimizer::build_model() {
             // alike. Log-spaced c down to 0.001 range: ellipsoid9's p90 9e4 -> 139, Zakharov
             // 207 -> 128, Dixon-Price 144 -> 15 at twice the refit time (BENCHMARKS.md,
             // "Warping offsets").
-            for (const double alpha : {0.0, 0.1, 0.01, 0.001}) {
-                const Warp w = warp_for(alpha, raw);
-                Eigen::VectorXd z(n);
+            const double alphas[] = {0.0, 0.1, 0.01, 0.001};
+            struct Candidate {
+                double alpha;
+                Warp w;
                 double log_jac = 0;
+                gp::GaussianProcess g;
+                gp::FitResult fr;
+                bool ok = false;
+            };
+            std::vector<Candidate> cands;
+            for (const double alpha : alphas) {
+                cands.push_back({alpha, warp_for(alpha, raw), 0.0, gp::GaussianProcess(d, gp_options), {}, false});
+            }
+            // The model of the values under a warping, warm-started from its own last fit.
+            auto prepare = [&](Candidate& c) {
+                Eigen::VectorXd z(n);
                 for (Eigen::Index i = 0; i < n; ++i) {
-                    z(i) = w.apply(raw(i));
-                    log_jac += w.log_slope(raw(i));
+                    z(i) = c.w.apply(raw(i));
+                    c.log_jac += c.w.log_slope(raw(i));
                 }
-                const auto warm = warp_hp_.find(alpha);  // its own last fit: the warm start
-                gp::GaussianProcess g(d, gp_options);
-                g.set_hyperparameters(warm != warp_hp_.end() ? warm->second : hp_);
-                if (!g.set_data(x, z, lf)) continue;
-                const gp::FitResult fr = g.fit(mix(options_.seed, 1000 + nu));
-                warp_hp_[alpha] = fr.hyperparameters;
-                const double score = -fr.neg_log_posterior - static_cast<double>(n) * std::log(g.output_scale()) + log_jac;
+                const auto warm = warp_hp_.find(c.alpha);
+                c.g.set_hyperparameters(warm != warp_hp_.end() ? warm->second : hp_);
+                c.ok = c.g.set_data(x, z, lf);
+            };
+            const std::uint64_t seed = mix(options_.seed, 1000 + nu);
+            auto judge = [&](Candidate& c) {
+                if (!c.ok) return;
+                warp_hp_[c.alpha] = c.fr.hyperparameters;
+                const double score = -c.fr.neg_log_posterior -
+                                     static_cast<double>(n) * std::log(c.g.output_scale()) + c.log_jac;
                 if (score > best_score) {
                     best_score = score;
-                    warp_alpha_ = alpha;
-                    hp_ = fr.hyperparameters;
-                    model = std::move(g);
-                    best = w.apply(w.best);
+                    warp_alpha_ = c.alpha;
+                    hp_ = c.fr.hyperparameters;
+                    best = c.w.apply(c.w.best);
+                    model = std::move(c.g);
+                }
+            };
+            if (warp_hp_.size() == std::size(alphas)) {
+                // Every warping starts from its own last fit: the four fits are independent,
+                // and their starts share the threads (judged in the same order as below).
+                std::vector<gp::GaussianProcess*> models;
+                for (Candidate& c : cands) {
+                    prepare(c);
+                    if (c.ok) models.push_back(&c.g);
+                }
+                const std::vector<gp::FitResult> results =
+                    gp::GaussianProcess::fit_together(models, std::vector<std::uint64_t>(models.size(), seed));
+                std::size_t k = 0;
+                for (Candidate& c : cands) {
+                    if (c.ok) c.fr = results[k++];
+                }
+                for (Candidate& c : cands) judge(c);
+            } else {
+                // The first refit: a warping without a fit of its own starts from the previous
+                // winner's, so the fits run one after the other.
+                for (Candidate& c : cands) {
+                    prepare(c);
+                    if (!c.ok) continue;
+                    c.fr = c.g.fit(seed);
+                    judge(c);
                 }
             }
         } else {

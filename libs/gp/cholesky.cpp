@@ -120,10 +120,15 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
     // multiply-adds instead of the ~n³ of dense solves and a dense product; nearly all of it is
     // gemm_update (fused multiply-adds where the CPU has them: ~2× Eigen's SSE2 products and
     // ~4× its triangular solves here, BENCHMARKS.md). The block size depends on n only, never
-    // on threads.
+    // on threads. Up to kSmallDense one thread and the column-panel kernel (no block overheads).
     const Eigen::Index n = l.rows();
-    const Eigen::Index block = n <= kSmallDense ? 32 : kBlock;
-    if (n <= kSmallDense) threads = 1;
+    upper_inv.resize(n, n);
+    inverse.resize(n, n);
+    if (n <= kSmallDense) {
+        detail::inverse_from_lower_small(l.data(), l.outerStride(), n, upper_inv.data(), inverse.data());
+        return;
+    }
+    const Eigen::Index block = kBlock;
     const Tiles grid{n, block};
     const int tiles = grid.count();
     auto start = [&](int b) { return grid.start(b); };
@@ -158,7 +163,6 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
             gemm(out, 1.0, inverse.block(r0, r0, rw, rw), partial.data(), 1, partial.outerStride());
         }
     });
-    upper_inv.resize(n, n);
     parallel_for(tiles, threads, [&](int c) {
         upper_inv.middleCols(start(c), width(c)) = inverse.middleRows(start(c), width(c)).transpose();
     });
@@ -191,11 +195,8 @@ void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::Matri
 bool factorize_lower(Eigen::Ref<Eigen::MatrixXd> a, int threads) {
     const Eigen::Index n = a.rows();
     // The algorithm depends on n only (never on threads), so every thread count gives the same
-    // bits; up to two blocks Eigen's own is as fast.
-    if (n <= kSmallDense) {
-        Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(a);
-        return llt.info() == Eigen::Success;
-    }
+    // bits. Up to kSmallDense the column-panel kernel: 2× Eigen's LLT at n = 100 (BENCHMARKS.md).
+    if (n <= kSmallDense) return detail::cholesky_lower_small(a.data(), n, a.outerStride());
     const Tiles grid{n, kBlock};
     const int blocks = grid.count();
     auto start = [&](int b) { return grid.start(b); };

@@ -55,14 +55,14 @@ std::unique_ptr<Cholesky> make_cholesky(CholeskyBackend backend);
 void inverse_from_lower(const Eigen::Ref<const Eigen::MatrixXd>& l, Eigen::MatrixXd& upper_inv,
                         Eigen::MatrixXd& inverse, int threads = 1);
 
-// Up to this size the dense routines below stay on one thread and Eigen's small-matrix code
-// paths: starting threads costs more than the work (K⁻¹ at n = 100: 0.36 ms on 2 threads,
-// 0.09 ms on one).
+// Up to this size the dense routines below stay on one thread and use the small-matrix kernels
+// (simd_kernels.hpp): starting threads costs more than the work (K⁻¹ at n = 100: 0.36 ms on 2
+// threads, 0.09 ms on one).
 constexpr Eigen::Index kSmallDense = 256;
 
 // In-place lower Cholesky factor of the symmetric positive definite a (only its lower triangle
 // is read; L overwrites it, the strict upper triangle is scratch). False if a is not positive
-// definite. Above kSmallDense right-looking in blocks of 128 (up to it, Eigen's LLT): the panel
+// definite. Above kSmallDense right-looking in blocks of 128 (up to it, left-looking by columns): the panel
 // solves and the trailing update's blocks are split across `threads`, each block written by
 // one task in a fixed order, so the factor does not depend on the thread count.
 bool factorize_lower(Eigen::Ref<Eigen::MatrixXd> a, int threads = 1);

@@ -92,15 +92,14 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
     if (grad != nullptr) grad->setZero(theta.size());
 
     const Eigen::ArrayXd inv_l = hp.length_scales.array().inverse();
-    ws.z = (x.array().colwise() * inv_l).matrix();  // scaled inputs d×n
+    // Scaled inputs, point-major (n×d): the O(n²d) kernels run along the points.
+    ws.z = (x.array().colwise() * inv_l).matrix().transpose();
     // The O(n²) work in slabs of kSlab columns, one task each: every element and every partial
     // sum is computed the same way for any thread count (the slabs depend on n only).
     constexpr Eigen::Index kSlab = 128;
     const auto slabs = static_cast<int>((n + kSlab - 1) / kSlab);
     const int threads = n <= kSmallDense ? 1 : ws.threads;
     auto slab = [&](int b) { return std::make_pair(b * kSlab, std::min(kSlab, n - b * kSlab)); };
-    // Squared distances |a|² + |b|² − 2a·b, as scaled_sq_dist.
-    const Eigen::RowVectorXd sq = ws.z.colwise().squaredNorm();
     ws.r2.resize(n, n);
     ws.kf.resize(n, n);
     ws.q.resize(n, n);
@@ -109,11 +108,7 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
     parallel_for(slabs, threads, [&](int b) {
         const auto [c0, w] = slab(b);
         auto r2 = ws.r2.middleCols(c0, w);
-        r2.noalias() = -2.0 * (ws.z.transpose() * ws.z.middleCols(c0, w));
-        r2.colwise() += sq.transpose();
-        r2.rowwise() += sq.segment(c0, w);
-        r2 = r2.cwiseMax(0.0);
-        for (Eigen::Index j = 0; j < w; ++j) r2(c0 + j, j) = 0.0;
+        detail::scaled_sq_dist_columns(ws.z.data(), n, dim, c0, w, r2.data(), n);
         detail::matern52_from_sq_dist(r2.data(), n * w, hp.signal_variance,
                                       ws.kf.middleCols(c0, w).data(),
                                       grad != nullptr ? ws.q.middleCols(c0, w).data() : nullptr);
@@ -149,10 +144,9 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
             inverse_from_lower(ws.k, ws.linv, ws.w, threads);
         }
         // Per slab: W, Σ W∘kf (dK/dlog s² = kf), tr W, and for the length scales
-        // dK/dlog l_j = Q ∘ D_j with D_j = (z_j,a − z_j,b)²: the sum over D_j reduces to the
-        // column sums of M = W ∘ Q and the product z M (M is symmetric).
-        Eigen::VectorXd signal_part(slabs), trace_part(slabs), lf_part = Eigen::VectorXd::Zero(slabs), col_sums(n);
-        Eigen::MatrixXd zm(dim, n);
+        // dK/dlog l_j = Q ∘ D_j with D_j = (z_j,a − z_j,b)²: ½ Σ (W ∘ Q) ∘ D_j.
+        Eigen::VectorXd signal_part(slabs), trace_part(slabs), lf_part = Eigen::VectorXd::Zero(slabs);
+        Eigen::MatrixXd ls_part = Eigen::MatrixXd::Zero(dim, slabs);
         parallel_for(slabs, threads, [&](int b) {
             const auto [c0, w] = slab(b);
             auto wb = ws.w.middleCols(c0, w);
@@ -165,17 +159,12 @@ double neg_log_posterior(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
             }
             auto mb = ws.q.middleCols(c0, w);
             mb.array() *= wb.array();
-            col_sums.segment(c0, w) = mb.colwise().sum().transpose();
-            zm.middleCols(c0, w).noalias() = ws.z * mb;
+            detail::weighted_sq_dist_sums(ws.z.data(), n, dim, c0, w, mb.data(), n, ls_part.col(b).data());
         });
         (*grad)(dim) = -0.5 * signal_part.sum();
         (*grad)(dim + 1) = -0.5 * hp.noise_variance * trace_part.sum();
         if (low_fidelity) (*grad)(dim + 2) = -0.5 * lf_noise * lf_part.sum();
-        for (int j = 0; j < dim; ++j) {
-            const double g =
-                ws.z.row(j).array().square().matrix().dot(col_sums) - ws.z.row(j).dot(zm.row(j));
-            (*grad)(j) = -g;  // ½ · 2 from the symmetric expansion
-        }
+        for (int j = 0; j < dim; ++j) (*grad)(j) = -0.5 * ls_part.row(j).sum();
     }
     if (options.use_priors) value += add_prior(theta, dim, options, grad);
     return value;
@@ -345,19 +334,48 @@ void GaussianProcess::truncate(Eigen::Index n) {
     update_alpha();
 }
 
-FitResult GaussianProcess::fit(std::uint64_t seed) {
+// One model's fit, split so that the starts of several fits can share one pool of threads
+// (GaussianProcess::fit_together): the subset and the starts, then each start's L-BFGS-B run,
+// then the best start (and the full-data refinement).
+struct GaussianProcess::FitPlan {
+    Eigen::MatrixXd xs;
+    Eigen::VectorXd ys, lfs;
+    bool lf = false;
+    Bounds bounds;
+    std::vector<Eigen::VectorXd> starts;
+    struct StartResult {
+        double value = std::numeric_limits<double>::infinity();
+        Eigen::VectorXd theta;
+        int evaluations = 0;
+    };
+    std::vector<StartResult> runs;
+};
+
+namespace {
+
+LBFGSpp::LBFGSBParam<double> fit_param(const FitOptions& o) {
+    LBFGSpp::LBFGSBParam<double> param;
+    param.max_iterations = o.max_iterations;
+    // Hyperparameters within ~1e-3 nats of the optimum predict the same; tighter tolerances
+    // only add evaluations.
+    param.epsilon = 1e-3;
+    param.past = 1;
+    param.delta = 1e-5;
+    param.max_linesearch = 30;
+    return param;
+}
+
+}  // namespace
+
+GaussianProcess::FitPlan GaussianProcess::plan_fit(std::uint64_t seed) const {
     const FitOptions& o = options_.fit;
     const Eigen::Index n = x_.cols();
-    FitResult result;
-    result.hyperparameters = hp_;
-    if (n < 2) return result;
-
+    FitPlan plan;
     std::mt19937_64 rng(seed);
     // Above max_points each step is O(n³): a random subset estimates the hyperparameters well
     // at a fraction of the cost; the final model still conditions on all points.
-    Eigen::MatrixXd xs;
-    Eigen::VectorXd ys, lfs;
-    const bool lf = has_low_fidelity();
+    plan.lf = has_low_fidelity();
+    const bool lf = plan.lf;
     if (n > o.max_points) {
         std::vector<Eigen::Index> idx(static_cast<std::size_t>(n));
         std::iota(idx.begin(), idx.end(), 0);
@@ -365,22 +383,21 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
             std::uniform_int_distribution<Eigen::Index> pick(i, n - 1);
             std::swap(idx[static_cast<std::size_t>(i)], idx[static_cast<std::size_t>(pick(rng))]);
         }
-        xs.resize(dim_, o.max_points);
-        ys.resize(o.max_points);
-        if (lf) lfs.resize(o.max_points);
+        plan.xs.resize(dim_, o.max_points);
+        plan.ys.resize(o.max_points);
+        if (lf) plan.lfs.resize(o.max_points);
         for (Eigen::Index i = 0; i < o.max_points; ++i) {
-            xs.col(i) = x_.col(idx[static_cast<std::size_t>(i)]);
-            ys(i) = y_(idx[static_cast<std::size_t>(i)]);
-            if (lf) lfs(i) = low_fidelity_(idx[static_cast<std::size_t>(i)]);
+            plan.xs.col(i) = x_.col(idx[static_cast<std::size_t>(i)]);
+            plan.ys(i) = y_(idx[static_cast<std::size_t>(i)]);
+            if (lf) plan.lfs(i) = low_fidelity_(idx[static_cast<std::size_t>(i)]);
         }
     } else {
-        xs = x_;
-        ys = y_;
-        lfs = low_fidelity_;
+        plan.xs = x_;
+        plan.ys = y_;
+        plan.lfs = low_fidelity_;
     }
-    result.points_used = xs.cols();
 
-    const Bounds bounds = log_bounds(dim_, o, lf);
+    plan.bounds = log_bounds(dim_, o, lf);
     // With low-fidelity points every start carries the log of their extra noise too.
     const double lf_start = std::log(hp_.low_fidelity_noise > 0 ? hp_.low_fidelity_noise : 0.05);
     auto with_lf = [&](Eigen::VectorXd t, double log_lf) {
@@ -389,7 +406,7 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         t(dim_ + 2) = log_lf;
         return t;
     };
-    std::vector<Eigen::VectorXd> starts;
+    std::vector<Eigen::VectorXd>& starts = plan.starts;
     starts.push_back(with_lf(hp_.to_log(), lf_start));  // warm start: the previous optimum
     if (o.fixed_start) {
         // A fixed, moderately smooth start independent of history.
@@ -410,40 +427,33 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         // Drawn only with low-fidelity points: a plain fit's random starts stay as they were.
         starts.push_back(lf ? with_lf(t, std::log(0.05) + 1.0 * normal(rng)) : t);
     }
+    plan.runs.resize(starts.size());
+    return plan;
+}
 
-    LBFGSpp::LBFGSBParam<double> param;
-    param.max_iterations = o.max_iterations;
-    // Hyperparameters within ~1e-3 nats of the optimum predict the same; tighter tolerances
-    // only add evaluations.
-    param.epsilon = 1e-3;
-    param.past = 1;
-    param.delta = 1e-5;
-    param.max_linesearch = 30;
-    // The starts are independent: they run side by side, and the best is picked in start order
-    // (ties to the earlier start), as a sequential loop would.
-    struct StartResult {
-        double value = std::numeric_limits<double>::infinity();
-        Eigen::VectorXd theta;
-        int evaluations = 0;
-    };
-    std::vector<StartResult> runs(starts.size());
-    parallel_for(static_cast<int>(starts.size()), resolve_threads(options_.threads), [&](int s) {
-        LBFGSpp::LBFGSBSolver<double> solver(param);
-        Eigen::VectorXd theta =
-            starts[static_cast<std::size_t>(s)].cwiseMax(bounds.lower).cwiseMin(bounds.upper);
-        Objective objective{xs, ys, o, options_.backend, lf ? &lfs : nullptr};
-        double fx = 0.0;
-        try {
-            solver.minimize(objective, theta, fx, bounds.lower, bounds.upper);
-        } catch (const std::exception&) {
-            // Line-search failures near a flat optimum are common; the best point seen stands.
-        }
-        runs[static_cast<std::size_t>(s)] = {objective.best_value, objective.best_theta,
-                                             objective.evaluations};
-    });
+void GaussianProcess::run_start(FitPlan& plan, std::size_t s) const {
+    const LBFGSpp::LBFGSBParam<double> param = fit_param(options_.fit);  // the solver keeps a reference
+    LBFGSpp::LBFGSBSolver<double> solver(param);
+    Eigen::VectorXd theta = plan.starts[s].cwiseMax(plan.bounds.lower).cwiseMin(plan.bounds.upper);
+    Objective objective{plan.xs, plan.ys, options_.fit, options_.backend, plan.lf ? &plan.lfs : nullptr};
+    double fx = 0.0;
+    try {
+        solver.minimize(objective, theta, fx, plan.bounds.lower, plan.bounds.upper);
+    } catch (const std::exception&) {
+        // Line-search failures near a flat optimum are common; the best point seen stands.
+    }
+    plan.runs[s] = {objective.best_value, objective.best_theta, objective.evaluations};
+}
+
+FitResult GaussianProcess::finish_fit(const FitPlan& plan) {
+    const FitOptions& o = options_.fit;
+    const Eigen::Index n = x_.cols();
+    FitResult result;
+    result.points_used = plan.xs.cols();
+    // The best is picked in start order (ties to the earlier start), as a sequential loop would.
     double best = std::numeric_limits<double>::infinity();
-    Eigen::VectorXd best_theta = starts.front();
-    for (const StartResult& run : runs) {
+    Eigen::VectorXd best_theta = plan.starts.front();
+    for (const FitPlan::StartResult& run : plan.runs) {
         result.evaluations += run.evaluations;
         ++result.starts;
         if (run.value < best) {
@@ -451,10 +461,11 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
             best_theta = run.theta;
         }
     }
+    const bool lf = plan.lf;
     if (n > o.max_points && o.full_data_refine) {
         // One warm run on all points from the subset's optimum: the subset finds the basin at
         // a fraction of the cost, the full data sets where in it the optimum lies.
-        LBFGSpp::LBFGSBParam<double> refine = param;
+        LBFGSpp::LBFGSBParam<double> refine = fit_param(o);
         refine.max_iterations = o.refine_iterations;
         LBFGSpp::LBFGSBSolver<double> solver(refine);
         Eigen::VectorXd theta = best_theta;
@@ -462,7 +473,7 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
         objective.workspace.threads = resolve_threads(options_.threads);
         double fx = 0.0;
         try {
-            solver.minimize(objective, theta, fx, bounds.lower, bounds.upper);
+            solver.minimize(objective, theta, fx, plan.bounds.lower, plan.bounds.upper);
         } catch (const std::exception&) {
         }
         result.evaluations += objective.evaluations;
@@ -476,6 +487,40 @@ FitResult GaussianProcess::fit(std::uint64_t seed) {
     result.hyperparameters.low_fidelity_noise = lf ? std::exp(best_theta(dim_ + 2)) : hp_.low_fidelity_noise;
     if (!set_hyperparameters(result.hyperparameters)) set_hyperparameters(hp_);
     return result;
+}
+
+FitResult GaussianProcess::fit(std::uint64_t seed) { return fit_together({this}, {seed}).front(); }
+
+std::vector<FitResult> GaussianProcess::fit_together(const std::vector<GaussianProcess*>& models,
+                                                     const std::vector<std::uint64_t>& seeds) {
+    if (models.size() != seeds.size()) throw std::invalid_argument("fit_together: one seed per model");
+    std::vector<std::optional<FitPlan>> plans(models.size());
+    std::vector<std::pair<std::size_t, std::size_t>> tasks;  // (model, start)
+    int threads = 1;
+    for (std::size_t m = 0; m < models.size(); ++m) {
+        if (models[m]->size() < 2) continue;
+        plans[m] = models[m]->plan_fit(seeds[m]);
+        for (std::size_t s = 0; s < plans[m]->starts.size(); ++s) tasks.emplace_back(m, s);
+        threads = std::max(threads, resolve_threads(models[m]->options_.threads));
+    }
+    // Random starts (last in each plan) usually take the most iterations, the warm start the
+    // fewest: longest first leaves the least idle time at the end (the order changes no result).
+    std::stable_sort(tasks.begin(), tasks.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
+    // The starts are independent: all of them, of every model, run side by side.
+    parallel_for(static_cast<int>(tasks.size()), threads, [&](int t) {
+        const auto [m, s] = tasks[static_cast<std::size_t>(t)];
+        models[m]->run_start(*plans[m], s);
+    });
+    std::vector<FitResult> results(models.size());
+    for (std::size_t m = 0; m < models.size(); ++m) {
+        if (plans[m]) {
+            results[m] = models[m]->finish_fit(*plans[m]);
+        } else {
+            results[m].hyperparameters = models[m]->hp_;
+        }
+    }
+    return results;
 }
 
 void GaussianProcess::predict(const Eigen::MatrixXd& xs, Eigen::VectorXd& mean,

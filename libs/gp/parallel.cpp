@@ -1,6 +1,7 @@
 #include "gp/parallel.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <exception>
 #include <system_error>
 #include <thread>
@@ -17,8 +18,11 @@ int resolve_threads(int threads) {
 void parallel_for(int count, int threads, const std::function<void(int)>& task) {
     const int used = std::clamp(threads, 1, std::max(count, 1));
     std::vector<std::exception_ptr> errors(static_cast<std::size_t>(std::max(count, 0)));
-    auto run = [&](int thread) {
-        for (int i = thread; i < count; i += used) {
+    // Dynamic: a thread takes the next task when it is done, so tasks of unequal length (the
+    // starts of a fit) keep every thread busy.
+    std::atomic<int> next{0};
+    auto run = [&](int) {
+        for (int i = next++; i < count; i = next++) {
             try {
                 task(i);
             } catch (...) {
@@ -32,10 +36,9 @@ void parallel_for(int count, int threads, const std::function<void(int)>& task) 
     try {
         for (; started < used; ++started) workers.emplace_back(run, started);
     } catch (const std::system_error&) {
-        // No more threads to be had: the calling thread runs the remaining shares itself.
+        // No more threads to be had: the calling thread runs what the others do not take.
     }
     run(0);
-    for (int t = started; t < used; ++t) run(t);
     for (std::thread& w : workers) w.join();
     for (const std::exception_ptr& e : errors) {
         if (e) std::rethrow_exception(e);

@@ -1,7 +1,7 @@
 #pragma once
 // A bounded parallel loop for the few hot loops of gp and bo (batched prediction, the starts
-// of a fit, the acquisition polish). Tasks are assigned to threads statically and each writes
-// only its own results, so the thread count never changes a result.
+// of a fit, the acquisition polish). Each task writes only its own results, so neither the
+// thread count nor which thread ran a task changes a result.
 
 #include <functional>
 
@@ -16,8 +16,8 @@ constexpr int kMaxAutoThreads = 4;
 int resolve_threads(int threads);
 
 // Runs task(i) for every i in [0, count) on min(threads, count) threads, the calling thread
-// included; task i runs on thread i mod threads. After all have finished, rethrows the
-// exception of the lowest-numbered task that threw.
+// included; each thread takes the next task in order when it is free. After all have finished,
+// rethrows the exception of the lowest-numbered task that threw.
 void parallel_for(int count, int threads, const std::function<void(int)>& task);
 
 }  // namespace maptune::gp

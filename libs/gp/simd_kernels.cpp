@@ -251,6 +251,247 @@ void matern52_from_sq_dist(const double* r2, Index count, double signal_variance
     }
 }
 
+void scaled_sq_dist_columns(const double* zt, Index n, int dim, Index c0, Index w, double* r2,
+                            Index ld) {
+    // Four vectors of rows at a time: four independent sums hide the add latency.
+    constexpr Index kGroup = 4 * kLanes;
+    const Index grouped = n / kGroup * kGroup;
+    const Index full = n / kLanes * kLanes;
+    double pad[kLanes], out[kLanes];
+    for (Index j = 0; j < w; ++j) {
+        const double* zj = zt + c0 + j;
+        double* col = r2 + j * ld;
+        Index i = 0;
+        for (; i < grouped; i += kGroup) {
+            Vec a0 = splat(0.0), a1 = a0, a2 = a0, a3 = a0;
+            for (int k = 0; k < dim; ++k) {
+                const double* zk = zt + static_cast<Index>(k) * n + i;
+                const double v = zj[static_cast<Index>(k) * n];
+                const Vec d0 = load(zk) - v, d1 = load(zk + kLanes) - v;
+                const Vec d2 = load(zk + 2 * kLanes) - v, d3 = load(zk + 3 * kLanes) - v;
+                a0 += d0 * d0;
+                a1 += d1 * d1;
+                a2 += d2 * d2;
+                a3 += d3 * d3;
+            }
+            store(col + i, a0);
+            store(col + i + kLanes, a1);
+            store(col + i + 2 * kLanes, a2);
+            store(col + i + 3 * kLanes, a3);
+        }
+        for (; i < n; i += kLanes) {
+            Vec acc = splat(0.0);
+            for (int k = 0; k < dim; ++k) {
+                const double* zk = zt + static_cast<Index>(k) * n;
+                Vec zi;
+                if (i < full) {
+                    zi = load(zk + i);
+                } else {
+                    // The tail through a padded vector: every value takes the same path.
+                    for (Index l = 0; l < kLanes; ++l) pad[l] = i + l < n ? zk[i + l] : 0.0;
+                    zi = load(pad);
+                }
+                const Vec dz = zi - zj[static_cast<Index>(k) * n];
+                acc += dz * dz;
+            }
+            if (i < full) {
+                store(col + i, acc);
+            } else {
+                store(out, acc);
+                std::memcpy(col + i, out, sizeof(double) * static_cast<std::size_t>(n - i));
+            }
+        }
+    }
+}
+
+void weighted_sq_dist_sums(const double* zt, Index n, int dim, Index c0, Index w, const double* m,
+                           Index ld, double* out) {
+    // Blocks of m small enough for L1 are passed over once per dimension; each block's sum per
+    // dimension is added to out in a fixed order (blocks depend on n, c0 and w only).
+    constexpr Index kRowBlock = 256, kColBlock = 16;
+    constexpr Index kGroup = 4 * kLanes;
+    double pad_z[kLanes], pad_m[kLanes], lanes[kLanes];
+    for (Index j0 = 0; j0 < w; j0 += kColBlock) {
+        const Index jw = min_index(kColBlock, w - j0);
+        for (Index i0 = 0; i0 < n; i0 += kRowBlock) {
+            const Index i1 = min_index(n, i0 + kRowBlock);
+            const Index grouped = i0 + (i1 - i0) / kGroup * kGroup;
+            const Index full = i0 + (i1 - i0) / kLanes * kLanes;
+            for (int k = 0; k < dim; ++k) {
+                const double* zk = zt + static_cast<Index>(k) * n;
+                // Four sums hide the add latency.
+                Vec a0 = splat(0.0), a1 = a0, a2 = a0, a3 = a0;
+                for (Index j = j0; j < j0 + jw; ++j) {
+                    const double zj = zk[c0 + j];
+                    const double* mj = m + j * ld;
+                    Index i = i0;
+                    for (; i < grouped; i += kGroup) {
+                        const Vec d0 = load(zk + i) - zj, d1 = load(zk + i + kLanes) - zj;
+                        const Vec d2 = load(zk + i + 2 * kLanes) - zj;
+                        const Vec d3 = load(zk + i + 3 * kLanes) - zj;
+                        a0 += load(mj + i) * (d0 * d0);
+                        a1 += load(mj + i + kLanes) * (d1 * d1);
+                        a2 += load(mj + i + 2 * kLanes) * (d2 * d2);
+                        a3 += load(mj + i + 3 * kLanes) * (d3 * d3);
+                    }
+                    for (; i < full; i += kLanes) {
+                        const Vec dz = load(zk + i) - zj;
+                        a0 += load(mj + i) * (dz * dz);
+                    }
+                    if (i < i1) {
+                        for (Index l = 0; l < kLanes; ++l) {
+                            pad_z[l] = i + l < i1 ? zk[i + l] : zj;
+                            pad_m[l] = i + l < i1 ? mj[i + l] : 0.0;
+                        }
+                        const Vec dz = load(pad_z) - zj;
+                        a1 += load(pad_m) * (dz * dz);
+                    }
+                }
+                store(lanes, (a0 + a1) + (a2 + a3));
+                double sum = 0.0;
+                for (double v : lanes) sum += v;
+                out[k] += sum;
+            }
+        }
+    }
+}
+
+namespace {
+
+// Panels of kPanel target columns share every vector of x they load (kPanel multiply-adds per
+// load): acc[c][v] += Σ_{k0 ≤ k < k1} s[c][k·ss] · x(row + v·kLanes, k), x(i, k) = x[i + k·xs].
+constexpr int kPanel = 4;
+template <int V>
+void panel_sums(const double* const* s, Index ss, const double* x, Index xs, Index k0, Index k1,
+                Vec (&acc)[kPanel][V]) {
+    for (Index k = k0; k < k1; ++k) {
+        const double* xk = x + k * xs;
+        Vec xv[V];
+        for (int v = 0; v < V; ++v) xv[v] = load(xk + v * kLanes);
+        for (int c = 0; c < kPanel; ++c) {
+            const double sc = s[c][k * ss];
+            for (int v = 0; v < V; ++v) acc[c][v] += sc * xv[v];
+        }
+    }
+}
+
+// For the jb ≤ kPanel columns out[c] (leading dimension implied by the pointers) and rows
+// [r_begin, r_end): out[c][row] = (init ? out[c][row] : 0) + sign · Σ_k s[c][k·ss] x(row, k), with
+// k from k_first(row block start) to k_end. Row blocks of two vectors, then one, then single
+// rows; every row block's sum runs over k in the same order.
+template <typename KFirst>
+void panel_rows(double* const* out, int jb, const double* const* s, Index ss, const double* x,
+                Index xs, Index r_begin, Index r_end, KFirst k_first, Index k_end, bool init,
+                double sign) {
+    Index r = r_begin;
+    for (; r + 2 * kLanes <= r_end; r += 2 * kLanes) {
+        Vec acc[kPanel][2] = {};
+        panel_sums<2>(s, ss, x + r, xs, k_first(r), k_end, acc);
+        for (int c = 0; c < jb; ++c) {
+            for (int v = 0; v < 2; ++v) {
+                double* o = out[c] + r + v * kLanes;
+                store(o, (init ? load(o) : splat(0.0)) + sign * acc[c][v]);
+            }
+        }
+    }
+    for (; r + kLanes <= r_end; r += kLanes) {
+        Vec acc[kPanel][1] = {};
+        panel_sums<1>(s, ss, x + r, xs, k_first(r), k_end, acc);
+        for (int c = 0; c < jb; ++c) {
+            double* o = out[c] + r;
+            store(o, (init ? load(o) : splat(0.0)) + sign * acc[c][0]);
+        }
+    }
+    for (; r < r_end; ++r) {
+        for (int c = 0; c < jb; ++c) {
+            double v = 0.0;
+            for (Index k = k_first(r); k < k_end; ++k) v += s[c][k * ss] * x[r + k * xs];
+            out[c][r] = (init ? out[c][r] : 0.0) + sign * v;
+        }
+    }
+}
+
+}  // namespace
+
+bool cholesky_lower_small(double* a, Index n, Index ld) {
+    // Left-looking in panels of kPanel columns: first every panel column's rows j0.. minus the
+    // columns left of the panel (shared loads), then the panel's own columns one by one.
+    for (Index j0 = 0; j0 < n; j0 += kPanel) {
+        const int jb = static_cast<int>(min_index(kPanel, n - j0));
+        double* out[kPanel];
+        const double* s[kPanel];
+        for (int c = 0; c < kPanel; ++c) {
+            const Index j = j0 + min_index(c, jb - 1);
+            out[c] = a + j * ld;
+            s[c] = a + j;  // row j of L: s[c][k·ld] = L(j, k)
+        }
+        panel_rows(out, jb, s, ld, a, ld, j0, n, [](Index) { return Index{0}; }, j0, true, -1.0);
+        for (int c = 0; c < jb; ++c) {
+            const Index j = j0 + c;
+            double* cj = a + j * ld;
+            for (Index k = j0; k < j; ++k) {
+                const double ljk = a[j + k * ld];
+                const double* ck = a + k * ld;
+                for (Index i = j; i < n; ++i) cj[i] -= ljk * ck[i];
+            }
+            const double d = cj[j];
+            if (!(d > 0.0)) return false;  // also NaN
+            const double root = std::sqrt(d);
+            cj[j] = root;
+            const double inv = 1.0 / root;
+            for (Index i = j + 1; i < n; ++i) cj[i] *= inv;
+        }
+    }
+    return true;
+}
+
+void inverse_from_lower_small(const double* l, Index ld, Index n, double* u, double* inv) {
+    std::memset(u, 0, sizeof(double) * static_cast<std::size_t>(n * n));
+    // U = L⁻ᵀ by columns: U(r, i) = −U(i, i) Σ_{r ≤ k < i} L(i, k) U(r, k), U(i, i) = 1 / L(i, i).
+    // A block of rows starting at r needs only k ≥ r (U is zero below its diagonal). In panels:
+    // the sums over the columns left of the panel first (shared loads), then the panel's own.
+    for (Index i0 = 0; i0 < n; i0 += kPanel) {
+        const int jb = static_cast<int>(min_index(kPanel, n - i0));
+        double* out[kPanel];
+        const double* s[kPanel];
+        for (int c = 0; c < kPanel; ++c) {
+            const Index i = i0 + min_index(c, jb - 1);
+            out[c] = u + i * n;
+            s[c] = l + i;  // s[c][k·ld] = L(i, k)
+        }
+        panel_rows(out, jb, s, ld, u, n, 0, i0, [](Index r) { return r; }, i0, false, 1.0);
+        for (int c = 0; c < jb; ++c) {
+            const Index i = i0 + c;
+            double* ui = u + i * n;
+            for (Index k = i0; k < i; ++k) {
+                const double lik = l[i + k * ld];
+                const double* uk = u + k * n;
+                for (Index r = 0; r <= k; ++r) ui[r] += lik * uk[r];
+            }
+            const double uii = 1.0 / l[i + i * ld];
+            for (Index r = 0; r < i; ++r) ui[r] *= -uii;
+            ui[i] = uii;
+        }
+    }
+    // Lower triangle of U Uᵀ: inv(i, j) = Σ_{k ≥ i} U(i, k) U(j, k); a block of rows starting at
+    // r needs only k ≥ r. A panel's later columns also fill a few rows above their diagonal
+    // (U(j, k) = 0 for k < j makes them exact too); the upper triangle is then set by symmetry.
+    for (Index j0 = 0; j0 < n; j0 += kPanel) {
+        const int jb = static_cast<int>(min_index(kPanel, n - j0));
+        double* out[kPanel];
+        const double* s[kPanel];
+        for (int c = 0; c < kPanel; ++c) {
+            const Index j = j0 + min_index(c, jb - 1);
+            out[c] = inv + j * n;
+            s[c] = u + j;  // s[c][k·n] = U(j, k)
+        }
+        panel_rows(out, jb, s, n, u, n, j0, n, [](Index r) { return r; }, n, false, 1.0);
+    }
+    for (Index j = 0; j < n; ++j) {
+        for (Index i = j + 1; i < n; ++i) inv[j + i * n] = inv[i + j * n];
+    }
+}
+
 Index strip_width() { return kStrip; }
 
 const char* instruction_set() {

@@ -20,6 +20,28 @@ using Index = std::ptrdiff_t;
 void matern52_from_sq_dist(const double* r2, Index count, double signal_variance, double* k,
                            double* q);
 
+// The fit's O(n²d) terms, on zt: n×dim column-major inputs divided by the length scales
+// (zt[i + k·n] = dimension k of point i), for the columns c0 .. c0 + w − 1 of n×n matrices
+// stored column-major with leading dimension ld. Every element is computed the same way
+// whatever c0 and w are (so slabs on any number of threads give the same bits).
+// r2(i, j) = Σ_k (zt(i, k) − zt(c0 + j, k))²: exact differences, zero on the diagonal.
+void scaled_sq_dist_columns(const double* zt, Index n, int dim, Index c0, Index w, double* r2,
+                            Index ld);
+// out[k] += Σ_j Σ_i m(i, j) (zt(i, k) − zt(c0 + j, k))² for every dimension k: with m = W ∘ Q
+// the length-scale part of the log marginal likelihood's gradient.
+void weighted_sq_dist_sums(const double* zt, Index n, int dim, Index c0, Index w, const double* m,
+                           Index ld, double* out);
+
+// Small dense factorization and inverse (n up to a few hundred: the matrix stays in L2), as
+// sums of columns held in registers. The lower Cholesky factor of a (n×n, column-major, leading
+// dimension ld; only the lower triangle is read and written) in place, left-looking by columns;
+// false if a is not positive definite.
+bool cholesky_lower_small(double* a, Index n, Index ld);
+// From the lower factor l (leading dimension ld): u = L⁻ᵀ (upper triangular, zero below, n×n
+// with leading dimension n) and inv = A⁻¹ = u uᵀ (n×n, leading dimension n, exactly symmetric).
+// n³/3 multiply-adds.
+void inverse_from_lower_small(const double* l, Index ld, Index n, double* u, double* inv);
+
 // Query points per strip (the register tile's width): 24 with AVX-512, 12 with AVX2, 6 without.
 Index strip_width();
 // What simd_kernels.cpp was compiled for: "avx512", "avx2", "sse2" or "generic".

@@ -74,7 +74,7 @@ TEST_P(CholeskyTest, RejectsIndefiniteAppend) {
 // kernel's row and column tails) against Eigen's LLT and LU, and the same bits for every
 // thread count.
 TEST(BlockedCholeskyTest, FactorAndInverseMatchEigenForEveryThreadCount) {
-    for (const Eigen::Index n : {37, 300, 517}) {
+    for (const Eigen::Index n : {5, 37, 100, 256, 300, 517}) {
         const Eigen::MatrixXd a = random_spd(n, 10 + static_cast<std::uint64_t>(n));
         const Eigen::MatrixXd oracle_l = Eigen::LLT<Eigen::MatrixXd>(a).matrixL();
         const Eigen::MatrixXd oracle_inv = a.inverse();

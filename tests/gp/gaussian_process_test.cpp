@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 namespace maptune::gp {
 namespace {
@@ -322,6 +323,33 @@ TEST(GaussianProcessTest, FitDoesNotDependOnThreads) {
     EXPECT_EQ(results[0].hyperparameters.to_log(), results[1].hyperparameters.to_log());
 }
 
+// Several models fitted together (their starts sharing the threads) get exactly the fits they
+// would get one by one.
+TEST(GaussianProcessTest, FitTogetherEqualsSeparateFits) {
+    std::mt19937_64 rng(17);
+    const Eigen::MatrixXd x = uniform_points(6, 50, rng);
+    Eigen::VectorXd y(50);
+    for (Eigen::Index i = 0; i < 50; ++i) y(i) = hartmann6(x.col(i));
+    const Eigen::VectorXd outputs[3] = {y, y.array().exp().matrix(), (y.array() + 4.0).log().matrix()};
+    std::vector<GaussianProcess> together, alone;
+    for (const Eigen::VectorXd& out : outputs) {
+        together.emplace_back(6);
+        together.back().set_data(x, out);
+    }
+    alone = together;
+    std::vector<GaussianProcess*> models;
+    for (GaussianProcess& g : together) models.push_back(&g);
+    const std::vector<FitResult> results = GaussianProcess::fit_together(models, {3, 4, 5});
+    ASSERT_EQ(results.size(), 3u);
+    for (std::size_t m = 0; m < 3; ++m) {
+        const FitResult own = alone[m].fit(3 + m);
+        EXPECT_EQ(results[m].neg_log_posterior, own.neg_log_posterior) << "model " << m;
+        EXPECT_EQ(results[m].evaluations, own.evaluations) << "model " << m;
+        EXPECT_EQ(results[m].hyperparameters.to_log(), own.hyperparameters.to_log()) << "model " << m;
+        EXPECT_EQ(together[m].hyperparameters().to_log(), alone[m].hyperparameters().to_log());
+    }
+}
+
 class GradientTest : public ::testing::TestWithParam<bool> {};
 
 TEST_P(GradientTest, LogPosteriorGradientMatchesFiniteDifferences) {
@@ -350,6 +378,32 @@ TEST_P(GradientTest, LogPosteriorGradientMatchesFiniteDifferences) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Priors, GradientTest, ::testing::Bool());
+
+// Above 128 points the O(n²) terms run in column slabs (and above 256 the factor and inverse in
+// blocks): the gradient must not change at the seams.
+TEST(GaussianProcessTest, GradientMatchesFiniteDifferencesAcrossSlabs) {
+    std::mt19937_64 rng(21);
+    const Eigen::Index n = 300;
+    const Eigen::MatrixXd x = uniform_points(3, n, rng);
+    Eigen::VectorXd y(n);
+    for (Eigen::Index i = 0; i < n; ++i) y(i) = std::sin(4.0 * x(0, i)) + x(1, i) * x(2, i);
+    y = (y.array() - y.mean()) / std::sqrt((y.array() - y.mean()).square().mean());
+    FitOptions options;
+    Eigen::VectorXd theta(5);
+    theta << std::log(0.3), std::log(0.7), std::log(1.5), std::log(0.9), std::log(1e-2);
+    Eigen::VectorXd grad;
+    neg_log_posterior(x, y, theta, options, &grad);
+    for (Eigen::Index i = 0; i < theta.size(); ++i) {
+        const double h = 1e-5;
+        Eigen::VectorXd tp = theta, tm = theta;
+        tp(i) += h;
+        tm(i) -= h;
+        const double fd = (neg_log_posterior(x, y, tp, options, nullptr) -
+                           neg_log_posterior(x, y, tm, options, nullptr)) /
+                          (2.0 * h);
+        EXPECT_NEAR(grad(i), fd, 1e-5 * std::max(1.0, std::abs(fd))) << "component " << i;
+    }
+}
 
 // The extra noise of low-fidelity points: its gradient component too.
 TEST(GaussianProcessTest, LowFidelityNoiseGradientMatchesFiniteDifferences) {
