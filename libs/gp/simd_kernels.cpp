@@ -411,6 +411,17 @@ void panel_rows(double* const* out, int jb, const double* const* s, Index ss, co
     }
 }
 
+// The pointers of a panel's columns j = j0 + c (c < kPanel; past jb the last one again, whose
+// sums are then not stored): out[c] = out_base + j·out_ld, s[c] = s_base + j.
+void panel_pointers(double* out_base, Index out_ld, const double* s_base, Index j0, int jb,
+                    double* (&out)[kPanel], const double* (&s)[kPanel]) {
+    for (int c = 0; c < kPanel; ++c) {
+        const Index j = j0 + min_index(c, jb - 1);
+        out[c] = out_base + j * out_ld;
+        s[c] = s_base + j;
+    }
+}
+
 }  // namespace
 
 bool cholesky_lower_small(double* a, Index n, Index ld) {
@@ -420,11 +431,7 @@ bool cholesky_lower_small(double* a, Index n, Index ld) {
         const int jb = static_cast<int>(min_index(kPanel, n - j0));
         double* out[kPanel];
         const double* s[kPanel];
-        for (int c = 0; c < kPanel; ++c) {
-            const Index j = j0 + min_index(c, jb - 1);
-            out[c] = a + j * ld;
-            s[c] = a + j;  // row j of L: s[c][k·ld] = L(j, k)
-        }
+        panel_pointers(a, ld, a, j0, jb, out, s);  // s[c][k·ld] = L(j, k)
         panel_rows(out, jb, s, ld, a, ld, j0, n, [](Index) { return Index{0}; }, j0, true, -1.0);
         for (int c = 0; c < jb; ++c) {
             const Index j = j0 + c;
@@ -454,11 +461,7 @@ void inverse_from_lower_small(const double* l, Index ld, Index n, double* u, dou
         const int jb = static_cast<int>(min_index(kPanel, n - i0));
         double* out[kPanel];
         const double* s[kPanel];
-        for (int c = 0; c < kPanel; ++c) {
-            const Index i = i0 + min_index(c, jb - 1);
-            out[c] = u + i * n;
-            s[c] = l + i;  // s[c][k·ld] = L(i, k)
-        }
+        panel_pointers(u, n, l, i0, jb, out, s);  // s[c][k·ld] = L(i, k)
         panel_rows(out, jb, s, ld, u, n, 0, i0, [](Index r) { return r; }, i0, false, 1.0);
         for (int c = 0; c < jb; ++c) {
             const Index i = i0 + c;
@@ -480,11 +483,7 @@ void inverse_from_lower_small(const double* l, Index ld, Index n, double* u, dou
         const int jb = static_cast<int>(min_index(kPanel, n - j0));
         double* out[kPanel];
         const double* s[kPanel];
-        for (int c = 0; c < kPanel; ++c) {
-            const Index j = j0 + min_index(c, jb - 1);
-            out[c] = inv + j * n;
-            s[c] = u + j;  // s[c][k·n] = U(j, k)
-        }
+        panel_pointers(inv, n, u, j0, jb, out, s);  // s[c][k·n] = U(j, k)
         panel_rows(out, jb, s, n, u, n, j0, n, [](Index r) { return r; }, n, false, 1.0);
     }
     for (Index j = 0; j < n; ++j) {

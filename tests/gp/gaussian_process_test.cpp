@@ -350,6 +350,23 @@ TEST(GaussianProcessTest, FitTogetherEqualsSeparateFits) {
     }
 }
 
+// The analytic gradient of neg_log_posterior against central differences.
+void expect_gradient_matches_finite_differences(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                                                const Eigen::VectorXd& theta, const FitOptions& options) {
+    Eigen::VectorXd grad;
+    neg_log_posterior(x, y, theta, options, &grad);
+    for (Eigen::Index i = 0; i < theta.size(); ++i) {
+        const double h = 1e-5;
+        Eigen::VectorXd tp = theta, tm = theta;
+        tp(i) += h;
+        tm(i) -= h;
+        const double fd = (neg_log_posterior(x, y, tp, options, nullptr) -
+                           neg_log_posterior(x, y, tm, options, nullptr)) /
+                          (2.0 * h);
+        EXPECT_NEAR(grad(i), fd, 1e-5 * std::max(1.0, std::abs(fd))) << "component " << i;
+    }
+}
+
 class GradientTest : public ::testing::TestWithParam<bool> {};
 
 TEST_P(GradientTest, LogPosteriorGradientMatchesFiniteDifferences) {
@@ -363,18 +380,7 @@ TEST_P(GradientTest, LogPosteriorGradientMatchesFiniteDifferences) {
     Eigen::VectorXd theta(6);
     theta << std::log(0.3), std::log(0.7), std::log(1.5), std::log(0.2), std::log(0.9),
         std::log(1e-3);
-    Eigen::VectorXd grad;
-    neg_log_posterior(x, y, theta, options, &grad);
-    for (Eigen::Index i = 0; i < theta.size(); ++i) {
-        const double h = 1e-5;
-        Eigen::VectorXd tp = theta, tm = theta;
-        tp(i) += h;
-        tm(i) -= h;
-        const double fd = (neg_log_posterior(x, y, tp, options, nullptr) -
-                           neg_log_posterior(x, y, tm, options, nullptr)) /
-                          (2.0 * h);
-        EXPECT_NEAR(grad(i), fd, 1e-5 * std::max(1.0, std::abs(fd))) << "component " << i;
-    }
+    expect_gradient_matches_finite_differences(x, y, theta, options);
 }
 
 INSTANTIATE_TEST_SUITE_P(Priors, GradientTest, ::testing::Bool());
@@ -391,18 +397,7 @@ TEST(GaussianProcessTest, GradientMatchesFiniteDifferencesAcrossSlabs) {
     FitOptions options;
     Eigen::VectorXd theta(5);
     theta << std::log(0.3), std::log(0.7), std::log(1.5), std::log(0.9), std::log(1e-2);
-    Eigen::VectorXd grad;
-    neg_log_posterior(x, y, theta, options, &grad);
-    for (Eigen::Index i = 0; i < theta.size(); ++i) {
-        const double h = 1e-5;
-        Eigen::VectorXd tp = theta, tm = theta;
-        tp(i) += h;
-        tm(i) -= h;
-        const double fd = (neg_log_posterior(x, y, tp, options, nullptr) -
-                           neg_log_posterior(x, y, tm, options, nullptr)) /
-                          (2.0 * h);
-        EXPECT_NEAR(grad(i), fd, 1e-5 * std::max(1.0, std::abs(fd))) << "component " << i;
-    }
+    expect_gradient_matches_finite_differences(x, y, theta, options);
 }
 
 // The extra noise of low-fidelity points: its gradient component too.
