@@ -34,8 +34,9 @@ void weighted_sq_dist_sums(const double* zt, Index n, int dim, Index c0, Index w
 
 // Small dense factorization and inverse (n up to a few hundred: the matrix stays in L2), as
 // sums of columns held in registers. The lower Cholesky factor of a (n×n, column-major, leading
-// dimension ld; only the lower triangle is read and written) in place, left-looking by columns;
-// false if a is not positive definite.
+// dimension ld; the lower triangle is the input and receives L, a few entries just above the
+// diagonal serve as scratch) in place, left-looking by columns; false if a is not positive
+// definite.
 bool cholesky_lower_small(double* a, Index n, Index ld);
 // From the lower factor l (leading dimension ld): u = L⁻ᵀ (upper triangular, zero below, n×n
 // with leading dimension n) and inv = A⁻¹ = u uᵀ (n×n, leading dimension n, exactly symmetric).
