@@ -68,6 +68,7 @@ struct Experiment {
     // 0: every proposal on the whole view.
     int fidelity_subset = 0;
     double fidelity_z = 2.0;
+    bool multi_fidelity() const { return fidelity_subset > 1; }
     int max_evaluations = 30;
     double max_seconds = 0;                  // 0 = no time budget
     std::string acquisition = "log_ei";      // ucb | ucb_schedule | ei | log_ei

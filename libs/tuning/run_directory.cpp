@@ -80,7 +80,7 @@ void RunDirectory::append_hyperparameters(int evaluation, const gp::Hyperparamet
     std::ofstream out(file, std::ios::app);
     // Multi-fidelity runs also record the extra noise of the subset's estimates (the column
     // depends on the experiment only, so a resumed run keeps the header it started with).
-    const bool low_fidelity = experiment_.fidelity_subset > 0;
+    const bool low_fidelity = experiment_.multi_fidelity();
     if (fresh) {
         out << "evaluation,signal_variance,noise_variance";
         for (const auto& name : names) out << ",length_scale_" << name;

@@ -21,7 +21,7 @@ namespace {
 void print_summary(const experiment::Experiment& e, const RunSummary& s, const fs::path& run_dir) {
     std::cout << "\n" << s.evaluations.size() << " evaluations (" << s.stop_reason << "), m* = "
               << params::format_fixed(s.m_star, 1) << "\n";
-    if (e.fidelity_subset > 1) {
+    if (e.multi_fidelity()) {
         const auto stopped = std::count_if(s.evaluations.begin(), s.evaluations.end(),
                                            [](const EvaluationRecord& r) { return r.fidelity != 1; });
         std::cout << "multi-fidelity: " << stopped << " of them stopped on the subset (1/" << e.fidelity_subset

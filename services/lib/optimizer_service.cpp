@@ -167,7 +167,7 @@ void OptimizerService::publish(const tuning::TuningRun& run, const EvaluationRec
     for (Eigen::Index i = 0; i < hp.length_scales.size() && i < static_cast<Eigen::Index>(names.size()); ++i) {
         add("length_scale_" + names[static_cast<std::size_t>(i)], hp.length_scales(i));
     }
-    if (options_.experiment.fidelity_subset > 0) add("low_fidelity_noise", hp.low_fidelity_noise);
+    if (options_.experiment.multi_fidelity()) add("low_fidelity_noise", hp.low_fidelity_noise);
     st.gp_hyperparameters(hpv);
     status_.write(st);
 
@@ -253,7 +253,7 @@ RunSummary OptimizerService::run() {
 
     tuning::TuningOptions tuning_options{options_.experiment_id, options_.incarnation, options_.resend_s, {}};
     std::vector<dataset::SubmapPair> subset;
-    if (e.fidelity_subset > 1) {
+    if (e.multi_fidelity()) {
         const dataset::ViewSpec spec{dataset::parse_view(e.view), e.fidelity_subset};
         subset = ds->pairs(spec, reference);
         tuning::Fidelity f;
