@@ -9,6 +9,7 @@
 #include <numeric>
 #include <random>
 
+#include "bo/quadratic_model.hpp"
 #include "gp/parallel.hpp"
 
 namespace maptune::bo {
@@ -541,6 +542,36 @@ std::optional<PredictedBest> Optimizer::predicted_best() const {
     return out;
 }
 
+std::optional<Eigen::VectorXd> Optimizer::quadratic_step(const Model& model, const Eigen::VectorXd& centre,
+                                                         const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) const {
+    // All measured live values: failures and low-fidelity estimates carry no value of their own,
+    // and a dead region's constant (the matcher's p = 0) is a cliff, not part of the bowl.
+    std::vector<std::size_t> used;
+    for (std::size_t i = 0; i < observations_.size(); ++i) {
+        if (!is_dead(observations_[i]) && !observations_[i].low_fidelity) used.push_back(i);
+    }
+    const int d = space_.dim();
+    if (used.size() < static_cast<std::size_t>(d + 2)) return std::nullopt;
+    Eigen::MatrixXd u(d, static_cast<Eigen::Index>(used.size()));
+    Eigen::VectorXd y(u.cols());
+    for (std::size_t k = 0; k < used.size(); ++k) {
+        u.col(static_cast<Eigen::Index>(k)) = observed_points_[used[k]].u;
+        y(static_cast<Eigen::Index>(k)) = internal(observations_[used[k]].value);
+    }
+    const auto quadratic = fit_separable_quadratic(u, y, centre);
+    if (!quadratic) return std::nullopt;
+    // Inside the region and the box the values span: a least-squares surface interpolates, and
+    // past its data (beyond the last live point before a cliff) it only extrapolates.
+    const Point point = make_point(maximize_in_box(*quadratic, lo.cwiseMax(u.rowwise().minCoeff()),
+                                                   hi.cwiseMin(u.rowwise().maxCoeff())));
+    if (is_taken(point.g) || near_failure(point.g)) return std::nullopt;
+    // The step knows nothing of dead regions: where the classifier rates it more likely dead
+    // than live, the acquisition (weighted by P(live)) proposes instead.
+    if (model.live && log_live(model.live->predict_with_gradient(point.g), model.live_prior, nullptr) < std::log(0.5))
+        return std::nullopt;
+    return point.u;
+}
+
 Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_t seed) {
     const int d = space_.dim();
     const AcquisitionContext ctx = acquisition_context(model.incumbent);
@@ -587,6 +618,12 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
         }
         for (Eigen::Index i = 0; i < n_global; ++i) {
             cand_u.col(i) = lo.array() + (hi - lo).array() * cand_u.col(i).array();
+        }
+        // Every fourth proposal (half of the region's) is the separable quadratic response
+        // surface's maximizer in the region (quadratic_model.hpp; why: BENCHMARKS.md, "Quadratic steps").
+        const std::size_t count = observations_.size() + pending_.size();
+        if (options_.quadratic_steps && count % 4 == 3) {
+            if (auto u = quadratic_step(model, center, lo, hi)) return *u;
         }
     }
 

@@ -274,13 +274,16 @@ Experiment load_experiment(const std::string& file) {
         const YamlPath p = top.child("optimizer");
         const YAML::Node n = root["optimizer"];
         params::check_keys(n, p, {"acquisition", "ucb_kappa", "initial_points", "seed", "batch", "warping", "search",
-                                  "cholesky", "dead_regions"});
+                                  "quadratic_steps", "cholesky", "dead_regions"});
         if (n["dead_regions"].IsDefined()) e.dead_regions = params::read_bool(n["dead_regions"], p.child("dead_regions"));
         if (n["warping"].IsDefined()) {
             e.warping = read_choice(n["warping"], p.child("warping"), {"none", "log", "copula", "automatic"});
         }
         if (n["search"].IsDefined()) {
             e.search = read_choice(n["search"], p.child("search"), {"global", "trust_region", "alternate"});
+        }
+        if (n["quadratic_steps"].IsDefined()) {
+            e.quadratic_steps = params::read_bool(n["quadratic_steps"], p.child("quadratic_steps"));
         }
         if (n["cholesky"].IsDefined()) {
             e.cholesky = read_choice(n["cholesky"], p.child("cholesky"), {"eigen", "cholmod"});
@@ -422,6 +425,7 @@ bo::OptimizerOptions optimizer_options(const Experiment& e) {
     o.search = e.search == "global"         ? bo::SearchRegion::global
                : e.search == "trust_region" ? bo::SearchRegion::trust_region
                                             : bo::SearchRegion::alternate;
+    o.quadratic_steps = e.quadratic_steps;
     o.gp.backend = e.cholesky == "cholmod" ? gp::CholeskyBackend::cholmod : gp::CholeskyBackend::eigen;
     // The matcher's p = 0 is "no match at all": whole regions of the space are dead (issue 15).
     if (!e.objective && e.dead_regions) o.dead_value = 0.0;

@@ -60,6 +60,7 @@ std::string write_black_box_experiment(const fs::path& run_dir, const BlackBoxSp
     out << YAML::Key << "initial_points" << YAML::Value << spec.initial_points;
     out << YAML::Key << "warping" << YAML::Value << spec.warping;
     out << YAML::Key << "search" << YAML::Value << spec.search;
+    out << YAML::Key << "quadratic_steps" << YAML::Value << spec.quadratic_steps;
     out << YAML::Key << "cholesky" << YAML::Value << spec.cholesky;
     out << YAML::EndMap;
     std::vector<std::pair<fs::path, std::string>> starts;

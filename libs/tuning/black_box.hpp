@@ -30,6 +30,7 @@ struct BlackBoxSpec {
     std::string acquisition = "log_ei";
     int initial_points = 0;
     std::string warping = "automatic", search = "alternate", cholesky = "eigen";
+    bool quadratic_steps = true;
     std::vector<std::string> start_points;  // parameter set YAML files
 };
 

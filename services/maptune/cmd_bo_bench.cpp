@@ -33,6 +33,7 @@ struct BoBenchOptions {
     int fit_random_starts = 2;
     std::string warping = "automatic";
     std::string search = "alternate";
+    bool quadratic_steps = true;
     int initial_points = 0;
     int threads = 0;
     bool timing = false;
@@ -124,6 +125,7 @@ int run_bo_bench(const BoBenchOptions& o) {
                     options.search = o.search == "global"         ? bo::SearchRegion::global
                                      : o.search == "trust_region" ? bo::SearchRegion::trust_region
                                                                   : bo::SearchRegion::alternate;
+                    options.quadratic_steps = o.quadratic_steps;
                     options.gp.threads = o.threads;
                     std::vector<bo::RegretRun> runs;
                     for (int s = 0; s < o.seeds; ++s) {
@@ -317,6 +319,9 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--search", opt->search,
                     "where proposals are searched: global | trust_region | alternate (default: alternate)")
         ->check(CLI::IsMember({"global", "trust_region", "alternate"}));
+    cmd->add_option("--quadratic-steps", opt->quadratic_steps,
+                    "every 4th proposal the maximizer of a separable quadratic fitted to all values, inside the "
+                    "trust region: true | false (default: true)");
     cmd->add_option("--threads", opt->threads,
                     "threads inside the GP's batched prediction and fit and the acquisition "
                     "polish, 0..64; 0 = the hardware's, at most 4 (default: 0)")

@@ -95,6 +95,9 @@ void add_optimize_command(CLI::App& app, int& exit_code) {
         ->check(CLI::IsMember({"automatic", "none", "log", "copula"}));
     cmd->add_option("--search", o->spec.search, "proposal search: alternate | trust_region | global")
         ->check(CLI::IsMember({"alternate", "trust_region", "global"}));
+    cmd->add_option("--quadratic-steps", o->spec.quadratic_steps,
+                    "every 4th proposal the maximizer of a separable quadratic fitted to all values, inside the trust "
+                    "region: true | false (default: true)");
     cmd->add_option("--cholesky", o->spec.cholesky, "GP factorization: eigen | cholmod")
         ->check(CLI::IsMember({"eigen", "cholmod"}));
     cmd->add_option("--initial-points", o->spec.initial_points, "quasi-random design size (0: max(5, d + 1))")

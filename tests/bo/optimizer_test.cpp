@@ -159,6 +159,10 @@ TEST(OptimizerTest, DeadRegionModelKeepsProposalsOutOfDeadRegions) {
     auto dead_proposals = [&](bool model_dead, std::uint64_t seed) {
         OptimizerOptions o = fast_options(seed);
         o.direction = Direction::maximize;
+        // The acquisition's weighting by P(live) alone: quadratic steps never step past the last
+        // live point (QuadraticStepsStayInsideTheLiveData) and, with the incumbent at the cliff
+        // sooner, change how often the region's other proposals straddle it.
+        o.quadratic_steps = false;
         if (model_dead) o.dead_value = 0.0;
         Optimizer opt(specs, o);
         int dead = 0;
@@ -175,6 +179,33 @@ TEST(OptimizerTest, DeadRegionModelKeepsProposalsOutOfDeadRegions) {
         without += dead_proposals(false, seed);
     }
     EXPECT_LT(with, without);
+}
+
+// A quadratic step fits the live values only and stays inside the box they span, so on a
+// cliff whose best values lie at its edge it does not step over it.
+TEST(OptimizerTest, QuadraticStepsStayInsideTheLiveData) {
+    const std::vector<ParameterSpec> specs = {{"x1", 0, 1}, {"x2", 0, 1}};
+    auto f = [](const std::vector<double>& x) {
+        return x[0] < 0.5 ? 0.0 : 1.5 - x[0] - (x[1] - 0.3) * (x[1] - 0.3);
+    };
+    int quadratic_slots = 0, dead = 0;
+    for (std::uint64_t seed : {1, 2, 3, 4}) {
+        OptimizerOptions o = fast_options(seed);
+        o.direction = Direction::maximize;
+        o.dead_value = 0.0;
+        Optimizer opt(specs, o);
+        for (int i = 0; i < 40; ++i) {
+            const Proposal p = opt.ask(1)[0];
+            // Proposal i is a quadratic step when i % 4 == 3 and it lies in the region.
+            if (p.origin == "model" && i % 4 == 3) {
+                ++quadratic_slots;
+                if (p.values[0] < 0.5) ++dead;
+            }
+            opt.tell(p.id, f(p.values));
+        }
+    }
+    EXPECT_GT(quadratic_slots, 20);
+    EXPECT_EQ(dead, 0);
 }
 
 // Issue 15: while every result is dead (the moon's baseline and whole design matched nothing)

@@ -170,6 +170,10 @@ TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
         write("name: d\nspace: space.yaml\ndataset: ds\noptimizer: {warping: none, search: global}\n"));
     EXPECT_EQ(optimizer_options(f).warping, bo::OutputWarping::none);
     EXPECT_EQ(optimizer_options(f).search, bo::SearchRegion::global);
+    EXPECT_TRUE(optimizer_options(e).quadratic_steps);
+    EXPECT_FALSE(optimizer_options(load_experiment(write(
+                     "name: d\nspace: space.yaml\ndataset: ds\noptimizer: {quadratic_steps: false}\n")))
+                     .quadratic_steps);
     ASSERT_TRUE(optimizer_options(e).dead_value.has_value());  // p = 0: no match at all
     EXPECT_EQ(*optimizer_options(e).dead_value, 0.0);
     EXPECT_FALSE(optimizer_options(load_experiment(write(
