@@ -4,7 +4,7 @@
     python3 bench/optimize/dead_share.py runs/dead/on runs/dead/off [--markdown]
 
 Each argument is a repeated `maptune run --seeds ...` directory (one seed-<n> directory per
-seed) or a single run directory. Counts the evaluations with origin "model" (after the
+seed) or a single run directory. Counts the evaluations with origin "model" or "quadratic" (after the
 initial design and start points) whose p is 0 or that failed, and the best p of each run.
 """
 import argparse
@@ -23,7 +23,7 @@ def run_dirs(path):
 def summarize(run_dir):
     with open(os.path.join(run_dir, "trials.csv")) as f:
         rows = list(csv.DictReader(f))
-    model = [r for r in rows if r["origin"] == "model"]
+    model = [r for r in rows if r["origin"] in ("model", "quadratic")]
     dead = [r for r in model if r["failed"] == "1" or float(r["p"]) <= 0.0]
     best = max((float(r["p"]) for r in rows if r["failed"] != "1"), default=0.0)
     return len(dead), len(model), best, len(rows)

@@ -252,20 +252,27 @@ std::string Optimizer::warping_in_use() const {
     return buf;
 }
 
+std::vector<bool> Optimizer::improvements() const {
+    std::vector<bool> out;
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Observation& o : observations_) {
+        const double v = o.failed ? -std::numeric_limits<double>::infinity() : internal(o.value);
+        out.push_back(v > best + 1e-3 * std::fabs(best));
+        if (v > best) best = v;
+    }
+    return out;
+}
+
 double Optimizer::trust_region_length() const {
     // TuRBO-1's defaults (Eriksson et al. 2019), q = 1.
     const double l0 = 0.8, l_max = 1.6, l_min = std::pow(0.5, 7);
     const int fail_tolerance = std::max(4, space_.dim());
-    double length = l0, best = -std::numeric_limits<double>::infinity();
+    double length = l0;
     int success = 0, failure = 0;
     const std::size_t design = static_cast<std::size_t>(initial_points());
-    for (std::size_t i = 0; i < observations_.size(); ++i) {
-        const auto& o = observations_[i];
-        const double v = o.failed ? -std::numeric_limits<double>::infinity() : internal(o.value);
-        const bool improved = v > best + 1e-3 * std::fabs(best);
-        if (v > best) best = v;
-        if (i < design) continue;  // the design only sets the incumbent
-        if (improved) {
+    const std::vector<bool> improved = improvements();
+    for (std::size_t i = design; i < improved.size(); ++i) {  // the design only sets the incumbent
+        if (improved[i]) {
             ++success;
             failure = 0;
         } else {
@@ -542,6 +549,27 @@ std::optional<PredictedBest> Optimizer::predicted_best() const {
     return out;
 }
 
+bool Optimizer::quadratic_steps_pay() const {
+    // Laplace's rule of succession for "this proposal improved the best" on the quadratic
+    // steps' slots against the region's other slots, from the observations in order (so a
+    // resumed run decides as the uninterrupted one). A slot lost to the acquisition keeps being
+    // counted, so the quadratic gets its slots back when the region's proposals stop paying.
+    int quad_tries = 0, quad_wins = 0, region_tries = 0, region_wins = 0;
+    const std::vector<bool> improved = improvements();
+    for (std::size_t i = static_cast<std::size_t>(initial_points()); i < improved.size(); ++i) {
+        const bool region = options_.search == SearchRegion::trust_region || i % 2 == 1;
+        if (!region) continue;
+        if (i % 4 == 3) {
+            ++quad_tries;
+            quad_wins += improved[i];
+        } else {
+            ++region_tries;
+            region_wins += improved[i];
+        }
+    }
+    return (quad_wins + 1.0) / (quad_tries + 2.0) >= (region_wins + 1.0) / (region_tries + 2.0);
+}
+
 std::optional<Eigen::VectorXd> Optimizer::quadratic_step(const Model& model, const Eigen::VectorXd& centre,
                                                          const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) const {
     // All measured live values: failures and low-fidelity estimates carry no value of their own,
@@ -572,7 +600,8 @@ std::optional<Eigen::VectorXd> Optimizer::quadratic_step(const Model& model, con
     return point.u;
 }
 
-Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_t seed) {
+Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_t seed, bool& quadratic) {
+    quadratic = false;
     const int d = space_.dim();
     const AcquisitionContext ctx = acquisition_context(model.incumbent);
 
@@ -622,8 +651,11 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
         // Every fourth proposal (half of the region's) is the separable quadratic response
         // surface's maximizer in the region (quadratic_model.hpp; why: BENCHMARKS.md, "Quadratic steps").
         const std::size_t count = observations_.size() + pending_.size();
-        if (options_.quadratic_steps && count % 4 == 3) {
-            if (auto u = quadratic_step(model, center, lo, hi)) return *u;
+        if (options_.quadratic_steps && count % 4 == 3 && quadratic_steps_pay()) {
+            if (auto u = quadratic_step(model, center, lo, hi)) {
+                quadratic = true;
+                return *u;
+            }
         }
     }
 
@@ -755,8 +787,9 @@ std::vector<Proposal> Optimizer::ask(int q) {
             // Seeded by the number of points so far, so a restored optimizer draws the same
             // candidates.
             const auto key = static_cast<std::uint64_t>(observations_.size() + pending_.size());
-            point = make_point(maximize_acquisition(*model, mix(options_.seed, 2 * key + 11)));
-            proposal.origin = "model";
+            bool quadratic = false;
+            point = make_point(maximize_acquisition(*model, mix(options_.seed, 2 * key + 11), quadratic));
+            proposal.origin = quadratic ? "quadratic" : "model";
         }
         if (model) {
             // Every proposal of this batch becomes a fantasy for the following ones.

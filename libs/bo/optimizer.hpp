@@ -74,11 +74,13 @@ struct OptimizerOptions {
     // model park "unimportant" dimensions on the boundary (ellipsoid, Styblinski-Tang).
     SearchRegion search = SearchRegion::alternate;
     // Every fourth proposal (half of the region's, with `alternate`) is the maximizer inside the
-    // trust region of a separable quadratic fitted by least squares to all values
-    // (quadratic_model.hpp), instead of the acquisition's: better median regret@100 on 9 of 12
-    // 9-D functions over 30 seeds, much better on multi-modal bowls (Levy 2.9 → 0.3, Griewank
-    // 0.85 → 0.25), worse on Styblinski-Tang, whose bowl's centre is a local maximum
-    // (BENCHMARKS.md, "Quadratic steps"). No effect with SearchRegion::global.
+    // trust region of a separable quadratic fitted by least squares to all live values
+    // (quadratic_model.hpp), instead of the acquisition's, while such steps improve the best at
+    // least as often as the region's others (Laplace's rule): better median regret@100 on 11 of
+    // 16 functions in 8-10 dimensions over 30 seeds, much better on multi-modal bowls (Levy 2.9 →
+    // 0.25, Griewank 0.85 → 0.24, Rastrigin 77 → 55), worse on non-separable Trid, a rotated
+    // ellipsoid and Michalewicz (BENCHMARKS.md, "Quadratic steps"). No effect with
+    // SearchRegion::global.
     bool quadratic_steps = true;
     // Dead regions (issue 15): observations at or worse than this value (the matcher's p = 0:
     // no match at all) and failures are "dead". Once both kinds exist, a second GP on the
@@ -113,7 +115,7 @@ struct PosteriorPoint {
 struct Proposal {
     std::uint64_t id = 0;
     std::vector<double> values;  // one per parameter, integers exact
-    std::string origin;          // "start", "initial", "model"
+    std::string origin;          // "start", "initial", "model", "quadratic" (a quadratic step)
 };
 
 struct Observation {
@@ -147,7 +149,7 @@ class Optimizer {
     // An observation made elsewhere (the sample database already had it).
     void add_observation(const Observation& observation);
     // Rebuilds, from a run's observations in order and where each proposal came from
-    // ("start", "initial", "model"; anything else counts as "model"), the state that run had
+    // ("start", "initial", "model", "quadratic"; anything else counts as "model"), the state that run had
     // when it proposed one set at a time: the design sequence's position and the warm-started
     // hyperparameter fits at the same sizes. A restarted sequential run then proposes exactly
     // what the uninterrupted one would have (with several proposals in flight it is close).
@@ -237,7 +239,14 @@ class Optimizer {
     AcquisitionContext acquisition_context(double incumbent) const;
     // The main GP's options: the prior mean from the first design_outputs outputs (the design).
     gp::GpOptions main_gp_options(std::size_t design_outputs) const;
-    Eigen::VectorXd maximize_acquisition(const Model& model, std::uint64_t seed);
+    // quadratic: set when the proposal is a quadratic step's (OptimizerOptions::quadratic_steps).
+    Eigen::VectorXd maximize_acquisition(const Model& model, std::uint64_t seed, bool& quadratic);
+    // Whether the next quadratic slot goes to the quadratic: its slots have improved the best at
+    // least as often as the region's other proposals (OptimizerOptions::quadratic_steps).
+    bool quadratic_steps_pay() const;
+    // Per observation in order: whether it improved the best before it by more than 1e-3 of
+    // its magnitude (the trust region's and the quadratic steps' notion of success).
+    std::vector<bool> improvements() const;
     // The separable quadratic's maximizer in [lo, hi], if it fits, is not taken and is more
     // likely live than dead.
     std::optional<Eigen::VectorXd> quadratic_step(const Model& model, const Eigen::VectorXd& centre,

@@ -34,7 +34,7 @@ struct EvaluationRecord {
     // [s] since the run started when the answer came (a resumed run goes on from its last
     // record); 0 in trials.csv written before this column.
     double elapsed_s = 0;
-    std::string origin;              // "start", "initial", "model" (kept when a run resumes)
+    std::string origin;              // "start", "initial", "model", "quadratic" (kept when a run resumes)
 };
 
 // What the optimizer was told for a record: experiment::objective of its p and pair_s.

@@ -47,7 +47,7 @@ using experiment::EvaluationRecord;
 struct Request {
     std::string id;               // "<experiment_id>/<incarnation>/<n>"
     params::ParameterSet params;  // the full set: optimized values and the experiment's fixed ones
-    std::string origin;           // "start", "initial", "model"
+    std::string origin;           // "start", "initial", "model", "quadratic"
     std::string view;             // the experiment's view, or the subset view of multi-fidelity
 };
 

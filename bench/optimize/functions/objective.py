@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Seven test objectives (9-D; Michalewicz 10-D, Powell 8-D) the optimizer was not developed on, for
+"""Eleven test objectives (9-D; Michalewicz 10-D, Powell 8-D) the optimizer was not developed on, for
 bench/optimize/compare.py: `objective.py NAME` reads a parameter set {"x1": …} as JSON on
 stdin and prints the value; `objective.py --space NAME` prints its design space YAML and
 `objective.py --minimum NAME` its known minimum (run.sh uses both)."""
@@ -16,6 +16,11 @@ FUNCTIONS = {
     "dixon_price": (9, -10.0, 10.0, 0.0),
     "zakharov": (9, -5.0, 10.0, 0.0),
     "powell": (8, -4.0, 5.0, 0.0),
+    # Added 2026-12-07 as a check of the quadratic steps, first run after them (BENCHMARKS.md).
+    "rotated_ellipsoid": (9, -65.0, 65.0, 0.0),
+    "trid": (9, -81.0, 81.0, -156.0),
+    "alpine": (9, -10.0, 10.0, 0.0),
+    "sum_powers": (9, -1.0, 1.0, 0.0),
 }
 
 
@@ -48,6 +53,18 @@ def value(name, x):
             a, b, c, e = x[4 * k:4 * k + 4]
             v += (a + 10 * b) ** 2 + 5 * (c - e) ** 2 + (b - 2 * c) ** 4 + 10 * (a - e) ** 4
         return v
+    if name == "rotated_ellipsoid":  # Schwefel 1.2: squares of running sums, strongly non-separable
+        total, c = 0.0, 0.0
+        for i, xi in enumerate(x):
+            c += xi - shift(i, 30.0)
+            total += c * c
+        return total
+    if name == "trid":  # a bowl coupled along neighbours; minimum -d(d+4)(d-1)/6
+        return sum((xi - 1) ** 2 for xi in x) - sum(x[i] * x[i - 1] for i in range(1, d))
+    if name == "alpine":  # non-smooth, multi-modal, optimum shifted
+        return sum(abs(z * math.sin(z) + 0.1 * z) for z in (xi - shift(i, 8.0) for i, xi in enumerate(x)))
+    if name == "sum_powers":  # different powers per axis: flat near the optimum, optimum shifted
+        return sum(abs(xi - shift(i, 1.0)) ** (i + 2) for i, xi in enumerate(x))
     raise ValueError(f"unknown function '{name}'")
 
 

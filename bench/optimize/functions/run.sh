@@ -7,7 +7,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 py=${PYTHON:-/usr/bin/python3}
 spaces=$(mktemp -d)
 trap 'rm -rf "$spaces"' EXIT
-for f in rastrigin schwefel michalewicz griewank dixon_price zakharov powell; do
+for f in rastrigin schwefel michalewicz griewank dixon_price zakharov powell rotated_ellipsoid trid alpine sum_powers; do
     "$py" "$here/objective.py" --space "$f" > "$spaces/$f.yaml"
     "$py" "$here/../compare.py" --space "$spaces/$f.yaml" --objective-cmd "$py $here/objective.py $f" \
         --minimum "$("$py" "$here/objective.py" --minimum "$f")" --name "$f" --seeds 10 --budget 100 "$@"
