@@ -649,7 +649,8 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
             cand_u.col(i) = lo.array() + (hi - lo).array() * cand_u.col(i).array();
         }
         // Every fourth proposal (half of the region's) is the separable quadratic response
-        // surface's maximizer in the region (quadratic_model.hpp; why: BENCHMARKS.md, "Quadratic steps").
+        // surface's maximizer in the region while such steps pay (quadratic_model.hpp; why:
+        // BENCHMARKS.md, "Quadratic steps").
         const std::size_t count = observations_.size() + pending_.size();
         if (options_.quadratic_steps && count % 4 == 3 && quadratic_steps_pay()) {
             if (auto u = quadratic_step(model, center, lo, hi)) {
