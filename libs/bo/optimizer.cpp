@@ -645,9 +645,6 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
             lo(j) = std::max(0.0, center(j) - half);
             hi(j) = std::min(1.0, center(j) + half);
         }
-        for (Eigen::Index i = 0; i < n_global; ++i) {
-            cand_u.col(i) = lo.array() + (hi - lo).array() * cand_u.col(i).array();
-        }
         // Every fourth proposal (half of the region's) is the separable quadratic response
         // surface's maximizer in the region while such steps pay (quadratic_model.hpp; why:
         // BENCHMARKS.md, "Quadratic steps").
@@ -657,6 +654,9 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
                 quadratic = true;
                 return *u;
             }
+        }
+        for (Eigen::Index i = 0; i < n_global; ++i) {
+            cand_u.col(i) = lo.array() + (hi - lo).array() * cand_u.col(i).array();
         }
     }
 

@@ -79,7 +79,7 @@ struct Experiment {
     int batch = 0;                           // proposals in flight; 0 = one per free worker slot
     std::string warping = "automatic";       // none | log | copula | automatic (docs/optimizer.md)
     std::string search = "alternate";        // global | trust_region | alternate
-    bool quadratic_steps = true;             // every 4th proposal a separable quadratic's (docs/optimizer.md)
+    bool quadratic_steps = true;             // quadratic steps while they pay (docs/optimizer.md)
     std::string cholesky = "eigen";          // eigen | cholmod (the GP's factorization)
     bool dead_regions = true;                // model where p = 0 (matcher experiments only)
     std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline
