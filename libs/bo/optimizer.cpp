@@ -586,7 +586,7 @@ std::optional<Eigen::VectorXd> Optimizer::quadratic_step(const Model& model, con
         u.col(static_cast<Eigen::Index>(k)) = observed_points_[used[k]].u;
         y(static_cast<Eigen::Index>(k)) = internal(observations_[used[k]].value);
     }
-    const auto quadratic = fit_separable_quadratic(u, y, centre);
+    const auto quadratic = fit_quadratic(u, y, centre);
     if (!quadratic) return std::nullopt;
     // Inside the region and the box the values span: a least-squares surface interpolates, and
     // past its data (beyond the last live point before a cliff) it only extrapolates.
@@ -645,7 +645,7 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
             lo(j) = std::max(0.0, center(j) - half);
             hi(j) = std::min(1.0, center(j) + half);
         }
-        // Every fourth proposal (half of the region's) is the separable quadratic response
+        // Every fourth proposal (half of the region's) is the quadratic response
         // surface's maximizer in the region while such steps pay (quadratic_model.hpp; why:
         // BENCHMARKS.md, "Quadratic steps").
         const std::size_t count = observations_.size() + pending_.size();

@@ -74,13 +74,14 @@ struct OptimizerOptions {
     // model park "unimportant" dimensions on the boundary (ellipsoid, Styblinski-Tang).
     SearchRegion search = SearchRegion::alternate;
     // Every fourth proposal (half of the region's, with `alternate`) is the maximizer inside the
-    // trust region of a separable quadratic fitted by least squares to all live values
-    // (quadratic_model.hpp), instead of the acquisition's, while such steps improve the best at
-    // least as often as the region's others (Laplace's rule): better median regret@100 on 11 of
-    // 16 functions in 8-10 dimensions over 30 seeds, much better on multi-modal bowls (Levy 2.9 →
-    // 0.25, Griewank 0.85 → 0.24, Rastrigin 77 → 55), worse on non-separable Trid, a rotated
-    // ellipsoid and Michalewicz (BENCHMARKS.md, "Quadratic steps"). No effect with
-    // SearchRegion::global.
+    // trust region of a quadratic fitted by least squares to all live values, with cross
+    // curvatures where leave-one-out error supports them (quadratic_model.hpp), instead of the
+    // acquisition's, while such steps improve the best at least as often as the region's others
+    // (Laplace's rule): much better median regret@100 on multi-modal bowls (Levy 2.9 → 0.25,
+    // Griewank 0.85 → 0.24, Rastrigin 77 → 55) and, with the cross curvatures, on oblique valleys
+    // (rotated ellipsoid 1 980 → 37, Trid 2.45 → 0.05); worse on Schwefel (BENCHMARKS.md,
+    // "Quadratic steps", "Cross curvatures").
+    // No effect with SearchRegion::global.
     bool quadratic_steps = true;
     // Dead regions (issue 15): observations at or worse than this value (the matcher's p = 0:
     // no match at all) and failures are "dead". Once both kinds exist, a second GP on the
@@ -247,7 +248,7 @@ class Optimizer {
     // Per observation in order: whether it improved the best before it by more than 1e-3 of
     // its magnitude (the trust region's and the quadratic steps' notion of success).
     std::vector<bool> improvements() const;
-    // The separable quadratic's maximizer in [lo, hi], if it fits, is not taken and is more
+    // The quadratic model's maximizer in [lo, hi], if it fits, is not taken and is more
     // likely live than dead.
     std::optional<Eigen::VectorXd> quadratic_step(const Model& model, const Eigen::VectorXd& centre,
                                                   const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) const;

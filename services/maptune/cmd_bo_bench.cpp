@@ -321,7 +321,7 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
         ->check(CLI::IsMember({"global", "trust_region", "alternate"}));
     cmd->add_option("--quadratic-steps", opt->quadratic_steps,
                     "every 4th proposal, while such steps improve the best as often as the trust region's others, the "
-                    "maximizer there of a separable quadratic fitted to all live values: true | false (default: true)");
+                    "maximizer there of a quadratic fitted to all live values: true | false (default: true)");
     cmd->add_option("--threads", opt->threads,
                     "threads inside the GP's batched prediction and fit and the acquisition "
                     "polish, 0..64; 0 = the hardware's, at most 4 (default: 0)")
