@@ -2,7 +2,6 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -28,7 +27,8 @@ struct RidgeFit {
 
 // Least squares with a penalty per coefficient, and its exact leave-one-out error
 // (residual_i / (1 − hat_ii)).
-std::optional<RidgeFit> ridge_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Eigen::VectorXd& penalty) {
+std::optional<RidgeFit> ridge_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+                                  const Eigen::VectorXd& penalty) {
     Eigen::MatrixXd normal = X.transpose() * X;
     normal.diagonal() += penalty;
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
@@ -46,10 +46,12 @@ std::optional<RidgeFit> ridge_fit(const Eigen::MatrixXd& X, const Eigen::VectorX
 }  // namespace
 
 std::optional<QuadraticModel> fit_quadratic(const Eigen::MatrixXd& u, const Eigen::VectorXd& y,
-                                            const Eigen::VectorXd& centre, double ridge, bool cross_terms) {
+                                            const Eigen::VectorXd& centre, double ridge,
+                                            bool cross_terms) {
     const Eigen::Index d = u.rows();
     const Eigen::Index n = u.cols();
-    if (n < d + 1 || y.size() != n || centre.size() != d || !y.allFinite() || !u.allFinite()) return std::nullopt;
+    if (n < d + 1 || y.size() != n || centre.size() != d || !y.allFinite() || !u.allFinite())
+        return std::nullopt;
     // Steps and values scaled to order one, so that one ridge means the same for every box and
     // objective.
     Eigen::MatrixXd steps = u.colwise() - centre;
@@ -98,21 +100,24 @@ std::optional<QuadraticModel> fit_quadratic(const Eigen::MatrixXd& u, const Eige
     m.A.diagonal() = best->theta.segment(1 + d, d) * (y_scale / (s * s));
     if (used > 1 + 2 * d) {
         for (Eigen::Index j = 0, col = 1 + 2 * d; j < d; ++j)
-            for (Eigen::Index k = j + 1; k < d; ++k, ++col) m.A(j, k) = m.A(k, j) = best->theta(col) * (y_scale / (s * s));
+            for (Eigen::Index k = j + 1; k < d; ++k, ++col)
+                m.A(j, k) = m.A(k, j) = best->theta(col) * (y_scale / (s * s));
     }
     return m;
 }
 
-Eigen::VectorXd maximize_in_box(const QuadraticModel& model, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+Eigen::VectorXd maximize_in_box(const QuadraticModel& model, const Eigen::VectorXd& lo,
+                                const Eigen::VectorXd& hi) {
     const Eigen::Index d = model.centre.size();
     // Convex and flat directions get a curvature of −1e-6 of the largest: up their slope to the
     // face unless the slope is negligible (a zero slope stays put rather than jump on noise).
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(model.A);
     const double floor = -1e-6 * eig.eigenvalues().cwiseAbs().maxCoeff();
-    const Eigen::MatrixXd A = floor < 0 ? Eigen::MatrixXd(eig.eigenvectors() *
-                                                          eig.eigenvalues().cwiseMin(floor).asDiagonal() *
-                                                          eig.eigenvectors().transpose())
-                                        : Eigen::MatrixXd::Zero(d, d);
+    const Eigen::MatrixXd A =
+        floor < 0
+            ? Eigen::MatrixXd(eig.eigenvectors() * eig.eigenvalues().cwiseMin(floor).asDiagonal() *
+                              eig.eigenvectors().transpose())
+            : Eigen::MatrixXd::Zero(d, d);
     const Eigen::VectorXd l = lo - model.centre, u = hi - model.centre;
     Eigen::VectorXd h = Eigen::VectorXd::Zero(d).cwiseMax(l).cwiseMin(u);
     if (!(floor < 0)) {
@@ -151,7 +156,8 @@ Eigen::VectorXd maximize_in_box(const QuadraticModel& model, const Eigen::Vector
                     alpha = (u(j) - h(j)) / step(a);
                     blocking = j;
                     side = 1;
-                } else if (step(a) < 0 && h(j) + step(a) < l(j) && (l(j) - h(j)) / step(a) < alpha) {
+                } else if (step(a) < 0 && h(j) + step(a) < l(j) &&
+                           (l(j) - h(j)) / step(a) < alpha) {
                     alpha = (l(j) - h(j)) / step(a);
                     blocking = j;
                     side = -1;

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/QR>
-
 #include <cmath>
 #include <limits>
 #include <random>
@@ -40,7 +39,8 @@ TEST(QuadraticModelTest, RecoversASeparableBowlAndItsPeak) {
     const auto model = fit_quadratic(u, y, centre, 0.0);
     ASSERT_TRUE(model.has_value());
     for (Eigen::Index i = 0; i < u.cols(); ++i) EXPECT_NEAR(model->value(u.col(i)), y(i), 1e-5);
-    const Eigen::VectorXd best = maximize_in_box(*model, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
+    const Eigen::VectorXd best =
+        maximize_in_box(*model, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
     for (int j = 0; j < d; ++j) EXPECT_NEAR(best(j), 0.2 + 0.6 * j / d, 1e-4) << "dimension " << j;
 }
 
@@ -60,7 +60,8 @@ TEST(QuadraticModelTest, SmoothsRipplesIntoTheirBowl) {
     }
     const auto model = fit_quadratic(u, y, Eigen::VectorXd::Constant(d, 0.5));
     ASSERT_TRUE(model.has_value());
-    const Eigen::VectorXd best = maximize_in_box(*model, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
+    const Eigen::VectorXd best =
+        maximize_in_box(*model, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
     for (int j = 0; j < d; ++j) EXPECT_NEAR(best(j), 0.35, 0.05) << "dimension " << j;
 }
 
@@ -75,7 +76,8 @@ TEST(QuadraticModelTest, StaysInTheBoxAndClimbsConvexDimensionsToAFace) {
     const Eigen::VectorXd centre = Eigen::VectorXd::Constant(d, 0.5);
     const auto model = fit_quadratic(u, y, centre, 0.0);
     ASSERT_TRUE(model.has_value());
-    const Eigen::VectorXd lo = Eigen::VectorXd::Constant(d, 0.4), hi = Eigen::VectorXd::Constant(d, 0.6);
+    const Eigen::VectorXd lo = Eigen::VectorXd::Constant(d, 0.4),
+                          hi = Eigen::VectorXd::Constant(d, 0.6);
     const Eigen::VectorXd best = maximize_in_box(*model, lo, hi);
     EXPECT_NEAR(best(0), 0.4, 1e-9);  // the concave peak, clamped to the box
     EXPECT_NEAR(best(1), 0.6, 1e-9);  // up the slope at the centre (0.5 > 0.3), to the face
@@ -84,11 +86,13 @@ TEST(QuadraticModelTest, StaysInTheBoxAndClimbsConvexDimensionsToAFace) {
 
 // A concave bowl along rotated axes: its valley runs diagonally, so no separable surface points
 // along it.
-double rotated_bowl(const Eigen::VectorXd& u, const Eigen::MatrixXd& rotation, const Eigen::VectorXd& peak) {
+double rotated_bowl(const Eigen::VectorXd& u, const Eigen::MatrixXd& rotation,
+                    const Eigen::VectorXd& peak) {
     const Eigen::VectorXd z = rotation * (u - peak);
     double v = 1.0;
     for (Eigen::Index j = 0; j < z.size(); ++j)
-        v -= std::pow(10.0, 2.0 * static_cast<double>(j) / static_cast<double>(z.size() - 1)) * z(j) * z(j);
+        v -= std::pow(10.0, 2.0 * static_cast<double>(j) / static_cast<double>(z.size() - 1)) *
+             z(j) * z(j);
     return v;
 }
 
@@ -111,13 +115,16 @@ TEST(QuadraticModelTest, RecoversARotatedBowlWhereTheDataSupportCrossTerms) {
     const auto model = fit_quadratic(u, y, Eigen::VectorXd::Constant(d, 0.5));
     ASSERT_TRUE(model.has_value());
     EXPECT_FALSE(model->separable());
-    const Eigen::VectorXd best = maximize_in_box(*model, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
+    const Eigen::VectorXd best =
+        maximize_in_box(*model, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
     EXPECT_LT((best - peak).norm(), 0.02) << best.transpose();
     // The separable surface on the same data misses the peak by far more.
     const auto axes = fit_quadratic(u, y, Eigen::VectorXd::Constant(d, 0.5), 1e-6, false);
     ASSERT_TRUE(axes.has_value());
     EXPECT_TRUE(axes->separable());
-    EXPECT_GT((maximize_in_box(*axes, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d)) - peak).norm(), 0.1);
+    EXPECT_GT(
+        (maximize_in_box(*axes, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d)) - peak).norm(),
+        0.1);
 }
 
 TEST(QuadraticModelTest, KeepsTheSeparableSurfaceWhenCrossTermsOnlyFitNoise) {
@@ -125,7 +132,8 @@ TEST(QuadraticModelTest, KeepsTheSeparableSurfaceWhenCrossTermsOnlyFitNoise) {
     const int d = 6;
     const Eigen::MatrixXd u = random_points(d, 25, 9);
     Eigen::VectorXd y(u.cols());
-    for (Eigen::Index i = 0; i < u.cols(); ++i) y(i) = bowl(u.col(i)) + 3.0 * std::cos(20.0 * u.col(i).sum());
+    for (Eigen::Index i = 0; i < u.cols(); ++i)
+        y(i) = bowl(u.col(i)) + 3.0 * std::cos(20.0 * u.col(i).sum());
     const auto model = fit_quadratic(u, y, Eigen::VectorXd::Constant(d, 0.5));
     ASSERT_TRUE(model.has_value());
     EXPECT_TRUE(model->separable());
