@@ -549,6 +549,12 @@ std::optional<PredictedBest> Optimizer::predicted_best() const {
     return out;
 }
 
+bool Optimizer::region_slot(std::size_t i) const {
+    // Alternating: every other proposal searches the whole box (by the count so far, so a
+    // resumed run alternates as the uninterrupted one).
+    return options_.search == SearchRegion::trust_region || (options_.search == SearchRegion::alternate && i % 2 == 1);
+}
+
 bool Optimizer::quadratic_steps_pay() const {
     // Laplace's rule of succession for "this proposal improved the best" on the quadratic
     // steps' slots against the region's other slots, from the observations in order (so a
@@ -557,9 +563,8 @@ bool Optimizer::quadratic_steps_pay() const {
     int quad_tries = 0, quad_wins = 0, region_tries = 0, region_wins = 0;
     const std::vector<bool> improved = improvements();
     for (std::size_t i = static_cast<std::size_t>(initial_points()); i < improved.size(); ++i) {
-        const bool region = options_.search == SearchRegion::trust_region || i % 2 == 1;
-        if (!region) continue;
-        if (i % 4 == 3) {
+        if (!region_slot(i)) continue;
+        if (quadratic_slot(i)) {
             ++quad_tries;
             quad_wins += improved[i];
         } else {
@@ -620,11 +625,8 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
     cand_u.leftCols(n_global) = halton.points(0, n_global);
     // Trust region: the box around the incumbent where candidates and polishes stay.
     Eigen::VectorXd lo = Eigen::VectorXd::Zero(d), hi = Eigen::VectorXd::Ones(d);
-    // Alternating: every other proposal searches the whole box (by the count so far, so a
-    // resumed run alternates as the uninterrupted one).
-    const bool global_step = options_.search == SearchRegion::alternate &&
-                             (observations_.size() + pending_.size()) % 2 == 0;
-    if (options_.search != SearchRegion::global && has_success() && !global_step) {
+    const std::size_t count = observations_.size() + pending_.size();
+    if (region_slot(count) && has_success()) {
         std::size_t inc = 0;
         bool found = false;
         for (std::size_t i = 0; i < observations_.size(); ++i) {
@@ -648,8 +650,7 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
         // Every fourth proposal (half of the region's) is the quadratic response
         // surface's maximizer in the region while such steps pay (quadratic_model.hpp; why:
         // BENCHMARKS.md, "Quadratic steps").
-        const std::size_t count = observations_.size() + pending_.size();
-        if (options_.quadratic_steps && count % 4 == 3 && quadratic_steps_pay()) {
+        if (options_.quadratic_steps && quadratic_slot(count) && quadratic_steps_pay()) {
             if (auto u = quadratic_step(model, center, lo, hi)) {
                 quadratic = true;
                 return *u;

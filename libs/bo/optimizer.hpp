@@ -242,6 +242,11 @@ class Optimizer {
     gp::GpOptions main_gp_options(std::size_t design_outputs) const;
     // quadratic: set when the proposal is a quadratic step's (OptimizerOptions::quadratic_steps).
     Eigen::VectorXd maximize_acquisition(const Model& model, std::uint64_t seed, bool& quadratic);
+    // Whether proposal number i (observations and pending before it) searches the trust region
+    // rather than the whole box, and whether it is a quadratic step's slot (every fourth: half
+    // of the region's with `alternate`).
+    bool region_slot(std::size_t i) const;
+    static bool quadratic_slot(std::size_t i) { return i % 4 == 3; }
     // Whether the next quadratic slot goes to the quadratic: its slots have improved the best at
     // least as often as the region's other proposals (OptimizerOptions::quadratic_steps).
     bool quadratic_steps_pay() const;

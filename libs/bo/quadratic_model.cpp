@@ -26,10 +26,10 @@ struct RidgeFit {
 };
 
 // Least squares with a penalty per coefficient, and its exact leave-one-out error
-// (residual_i / (1 − hat_ii)).
-std::optional<RidgeFit> ridge_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
-                                  const Eigen::VectorXd& penalty) {
-    Eigen::MatrixXd normal = X.transpose() * X;
+// (residual_i / (1 − hat_ii)). gram = XᵀX, shared by the fits of one design under several ridges.
+std::optional<RidgeFit> ridge_fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& gram,
+                                  const Eigen::VectorXd& y, const Eigen::VectorXd& penalty) {
+    Eigen::MatrixXd normal = gram;
     normal.diagonal() += penalty;
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
     if (ldlt.info() != Eigen::Success) return std::nullopt;
@@ -80,12 +80,16 @@ std::optional<QuadraticModel> fit_quadratic(const Eigen::MatrixXd& u, const Eige
 
     // Separable unless some ridge on the cross curvatures predicts the left-out values better:
     // with few points or ripples that the cross terms would only chase, it does not.
-    auto best = ridge_fit(design.leftCols(1 + 2 * d), target, penalty.head(1 + 2 * d));
+    const Eigen::MatrixXd separable = design.leftCols(1 + 2 * d);
+    auto best =
+        ridge_fit(separable, separable.transpose() * separable, target, penalty.head(1 + 2 * d));
     if (!best) return std::nullopt;
     Eigen::Index used = 1 + 2 * d;
+    const Eigen::MatrixXd gram =
+        cross > 0 ? Eigen::MatrixXd(design.transpose() * design) : Eigen::MatrixXd();
     for (double lambda = 1e-4; cross > 0 && lambda <= 1.0 + 1e-12; lambda *= 10.0) {
         penalty.tail(cross).setConstant(lambda * nn);
-        auto fit = ridge_fit(design, target, penalty);
+        auto fit = ridge_fit(design, gram, target, penalty);
         if (fit && fit->loo < best->loo) {
             best = std::move(fit);
             used = design.cols();

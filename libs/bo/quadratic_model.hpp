@@ -30,7 +30,7 @@ struct QuadraticModel {
 // decades) when one predicts the left-out values better than the separable model (exact
 // leave-one-out error of each ridge regression; the separable model wins ties); without, or
 // beyond 16 dimensions (136 or more cross terms; at 16 a fit on 1 000 points already takes
-// 85 ms), the model is separable.
+// 51 ms), the model is separable.
 // Empty with fewer than d + 1 points or non-finite input.
 std::optional<QuadraticModel> fit_quadratic(const Eigen::MatrixXd& u, const Eigen::VectorXd& y,
                                             const Eigen::VectorXd& centre, double ridge = 1e-6,
