@@ -293,9 +293,12 @@ double Optimizer::trust_region_length() const {
 
 Optimizer::Warp Optimizer::warp_for(double alpha, const Eigen::VectorXd& y) const {
     Warp w;
-    if (alpha <= 0 || y.size() == 0) return w;
-    w.alpha = alpha;
+    if (y.size() == 0) return w;
+    // Also for the identity: the warping fits take a candidate's incumbent as apply(best), which
+    // must be the best value itself, not 0.
     w.best = y.maxCoeff();
+    if (alpha <= 0) return w;
+    w.alpha = alpha;
     const double range = w.best - y.minCoeff();
     w.c = alpha * (range > 0 ? range : 1.0);
     return w;
