@@ -88,8 +88,6 @@ TEST(OptimizerTest, AutomaticWarpingPicksTheLogForValuesOverOrdersOfMagnitude) {
     EXPECT_EQ(plain.warping_in_use(), "none");
 }
 
-// A few huge values (the ellipsoid's far corners) set the range; with c = 0.1 × range every
-// good value looked alike under the log. The likelihood picks a smaller offset here.
 // While the automatic warping keeps choosing the identity, its runs are the fixed identity's
 // ("none"): the same fits from the same starts, and EI's incumbent the best value under both.
 // (The chosen identity's incumbent was once taken as 0 at every refit.)
@@ -113,6 +111,8 @@ TEST(OptimizerTest, AutomaticWarpingThatKeepsTheIdentityProposesAsNoWarping) {
     EXPECT_GE(compared, 10);
 }
 
+// A few huge values (the ellipsoid's far corners) set the range; with c = 0.1 × range every
+// good value looked alike under the log. The likelihood picks a smaller offset here.
 TEST(OptimizerTest, WarpingOffsetIsChosenBelowTheRangeWhenCornersDominateIt) {
     const TestFunction fn = ellipsoid(9);
     Optimizer opt(fn.space, fast_options(3));
