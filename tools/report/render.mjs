@@ -26,7 +26,9 @@ const SCHEMA = 'https://vega.github.io/schema/vega-lite/v5.json';
 const fmt = (v, d = 3) => (v === null || v === undefined || Number.isNaN(v) ? '–' : Number(v).toFixed(d));
 const signed = (d) => (Math.abs(d) < 5e-4 ? '±0.000' : (d > 0 ? '+' : '−') + Math.abs(d).toFixed(3));
 const esc = (s) => String(s ?? '').replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' })[c]);
-const scaleOf = (spec) => (spec && spec.log ? { type: 'log' } : { zero: false });
+// A log axis spans exactly the parameter's bounds: rounded out to powers of ten ("nice") it drew
+// r 0.1–2 m on 0.1–10, most of the panel beyond the box.
+const scaleOf = (spec) => (spec && spec.log ? { type: 'log', domain: [spec.low, spec.high], nice: false } : { zero: false });
 const median = (xs) => {
   const s = [...xs].sort((a, b) => a - b);
   const n = s.length;
