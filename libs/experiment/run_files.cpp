@@ -165,6 +165,11 @@ RunRecord read_run_record(const fs::path& run_dir) {
         r.matcher_id = text(m["id"], p.child("id"));
         r.matcher_version = text(m["version"], p.child("version"));
     }
+    if (const YAML::Node s = root["space"]; s.IsDefined()) {
+        const auto p = where.child("space");
+        params::require_map(s, p);
+        r.space_hash = text(s["hash"], p.child("hash"));
+    }
     if (root["measure"].IsDefined() && root["measure"]["m_star"].IsDefined()) {
         r.m_star = params::read_finite_double(root["measure"]["m_star"], where.child("measure").child("m_star"));
     }

@@ -65,6 +65,7 @@ struct RunRecord {
     std::string experiment_file;
     std::string dataset_dir, dataset_id, view, reference;
     std::string matcher_id, matcher_version;
+    std::string space_hash;  // of the design space it ran in; empty in records older than the key
     double m_star = 0;
     std::string state;              // running | finished
     std::optional<double> best_p;   // finished runs with a successful evaluation

@@ -123,7 +123,10 @@ RunSummary run_black_box(const experiment::Experiment& e, const fs::path& run_di
                   0);
     const RunDirectory files(run_dir, e, {e.name, "", "", "command", "", utc_now()});
     run.resume(experiment::read_trials_csv(files.trials_file(), e.space));
-    if (run.resumed() > 0) log << "resumed " << run.resumed() << " evaluations from " << files.trials_file().string() << "\n";
+    if (run.resumed() > 0) {
+        if (files.space_change()) log << *files.space_change() << "\n";
+        log << "resumed " << run.resumed() << " evaluations from " << files.trials_file().string() << "\n";
+    }
     files.write_record(run.summary());
 
     CommandPool pool(obj.command, obj.timeout_s, obj.parallel);

@@ -9,6 +9,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "dataset/io.hpp"
+#include "experiment/run_files.hpp"
 #include "params/export.hpp"
 #include "params/yaml_util.hpp"
 
@@ -47,6 +48,20 @@ std::string new_incarnation_id() {
 RunDirectory::RunDirectory(fs::path dir, const experiment::Experiment& experiment, RunInfo info)
     : dir_(std::move(dir)), experiment_(experiment), info_(std::move(info)) {
     fs::create_directories(dir_);
+    std::error_code ec;
+    if (!fs::exists(dir_ / "run.yaml", ec)) return;
+    std::string recorded;
+    try {
+        recorded = experiment::read_run_record(dir_).space_hash;
+    } catch (const params::ConfigError&) {
+        return;  // a broken record is reported where the run is read
+    }
+    const std::string now = experiment_.space.hash();
+    if (!recorded.empty() && recorded != now) {
+        space_change_ = (dir_ / "run.yaml").string() + ": the run started in another design space (space hash " +
+                        recorded + ", now " + now + " from " + experiment_.space.name() +
+                        "): its evaluations resume as parameter values in the current space";
+    }
 }
 
 void RunDirectory::write_results(const RunSummary& summary) const {
@@ -103,6 +118,10 @@ void RunDirectory::write_record(const RunSummary& summary, const std::optional<R
     std::error_code ec;
     const fs::path file = e.file.empty() ? fs::path() : fs::absolute(e.file, ec).lexically_normal();
     out << YAML::Key << "experiment_file" << YAML::Value << file.string();
+    out << YAML::Key << "space" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << e.space.name();
+    out << YAML::Key << "hash" << YAML::Value << e.space.hash();
+    out << YAML::EndMap;
     if (e.objective) {
         out << YAML::Key << "objective" << YAML::Value << YAML::BeginMap;
         out << YAML::Key << "command" << YAML::Value << e.objective->command;

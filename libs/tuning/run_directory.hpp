@@ -50,11 +50,16 @@ public:
     void write_results(const RunSummary& summary) const;
     // One line of gp_hyperparameters.csv (header first when the file is new or empty).
     void append_hyperparameters(int evaluation, const gp::Hyperparameters& hp) const;
+    // When the directory held a run recorded in another design space (its space file changed
+    // since: bounds, scales or parameters), what to tell the user who resumes it; empty for a
+    // new run, the same space, or a record older than the space key.
+    const std::optional<std::string>& space_change() const { return space_change_; }
 
 private:
     std::filesystem::path dir_;
     const experiment::Experiment& experiment_;
     RunInfo info_;
+    std::optional<std::string> space_change_;  // read before this run's record replaces the old
 };
 
 }  // namespace maptune::tuning

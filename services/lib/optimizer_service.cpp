@@ -283,6 +283,7 @@ RunSummary OptimizerService::run() {
     files.write_record(run.summary());
     run.resume(read_trials_csv(files.trials_file(), e.space));
     if (run.resumed() > 0) {
+        if (files.space_change()) log(*files.space_change());
         log("resumed " + std::to_string(run.resumed()) + " evaluations from " + files.trials_file().string());
         // A late `watch` gets the resumed best at once, even when the budget is already used
         // and no new reply (which is what publishes otherwise) will come.

@@ -383,6 +383,22 @@ TEST_F(CliTest, RunBudgetOverridesAndExtendsAFinishedRun) {
     ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
     EXPECT_EQ(rows("a").size(), 8u);
     EXPECT_EQ(rows("a"), rows("b"));
+    EXPECT_EQ((more.out + more.err).find("another design space"), std::string::npos) << more.out << more.err;
+
+    // The space file changed since (its scales linear again): resuming says so, then goes on.
+    std::string space = slurp(fs::path(src) / "configs/spaces/lru_matcher.yaml");
+    for (std::size_t at; (at = space.find("log_scale: true, ")) != std::string::npos;) space.erase(at, 17);
+    std::ofstream(dir_ / "linear.yaml") << space;
+    std::string exp = slurp(dir_ / "exp.yaml");
+    const std::string shipped = src + "/configs/spaces/lru_matcher.yaml";
+    exp.replace(exp.find(shipped), shipped.size(), (dir_ / "linear.yaml").string());
+    std::ofstream(dir_ / "exp.yaml") << exp;
+    const CliRun changed = run("a", 8);
+    ASSERT_EQ(changed.exit_code, 0) << changed.out << changed.err;
+    EXPECT_NE((changed.out + changed.err).find("run.yaml: the run started in another design space"), std::string::npos)
+        << changed.out << changed.err;
+    EXPECT_NE((changed.out + changed.err).find("resumed 7 evaluations"), std::string::npos) << changed.out << changed.err;
+    EXPECT_EQ(rows("a").size(), 9u);
     const CliRun bad = maptune("run --experiment " + (dir_ / "exp.yaml").string() + " --budget 0");
     EXPECT_EQ(bad.exit_code, 2) << bad.out << bad.err;
     EXPECT_NE(bad.err.find("--budget"), std::string::npos) << bad.err;

@@ -222,6 +222,22 @@ TEST_F(BlackBoxRun, FindsTheMinimumWritesTheRunAndResumes) {
         EXPECT_EQ(second.evaluations[i].p, first.evaluations[i].p);
     }
     EXPECT_EQ(experiment::read_trials_csv(run_dir / "trials.csv", e.space).size(), 25u);
+    EXPECT_EQ(experiment::read_run_record(run_dir).space_hash, e.space.hash());
+    EXPECT_EQ(log2.str().find("another design space"), std::string::npos) << log2.str();
+
+    // Resumed in a space whose file changed since (k now log-scaled): said, then resumed.
+    e.space = params::ParameterSpace::parse(
+        "name: toy\nparameters:\n"
+        "  x: {type: float, low: -2.0, high: 3.0, default: 2.5}\n"
+        "  k: {type: int, low: 1, high: 5, default: 4, log_scale: true}\n",
+        "changed.yaml");
+    e.max_evaluations = 26;
+    std::ostringstream log3;
+    const auto third = tuning::run_black_box(e, run_dir, log3, [] { return false; });
+    EXPECT_NE(log3.str().find("run.yaml: the run started in another design space"), std::string::npos) << log3.str();
+    EXPECT_NE(log3.str().find("resumed 25 evaluations"), std::string::npos) << log3.str();
+    EXPECT_EQ(third.evaluations.size(), 26u);
+    EXPECT_EQ(experiment::read_run_record(run_dir).space_hash, e.space.hash());
 }
 
 TEST_F(BlackBoxRun, StopEndsRunningCommandsAndKeepsTheResults) {
