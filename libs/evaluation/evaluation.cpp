@@ -21,7 +21,8 @@ store::PairStatus to_store_status(matcher::MatchStatus status) {
 std::string matcher_version(const matcher::MatcherSettings& s) {
     // Every setting of the one table (all but the thread count) changes what the matcher returns.
     std::string text;
-    for (const auto& kv : matcher::setting_texts(s)) text += kv + ";";
+    for (const auto& f : matcher::setting_fields())
+        if (matcher::in_version(f, s)) text += f.name + "=" + f.get(s) + ";";
     // The prefix counts code changes that alter results (2: ICP convergence epsilons; 3: the
     // version derived from the settings table instead of a hand-kept list; 4: pair durations
     // include both submaps' feature time, which run-time budgets compare).

@@ -150,7 +150,65 @@ std::size_t SubmapFeatures::bytes() const {
         b += icp_cloud->cloud->size() * (sizeof(IcpPoint) + 32);
         if (icp_cloud->source != icp_cloud->cloud) b += icp_cloud->source->size() * sizeof(IcpPoint);
     }
+    if (octree) b += octree->memoryUsage();
     return b;
+}
+
+namespace {
+
+// Counts `pts` (in the cloud's frame) placed by T into `tree`'s frame: known cells, and free
+// cells without an occupied cell within margin (a cube of cells; the nearest surface's).
+void count_free(const octomap::OcTree& tree, const pcl::PointCloud<IcpPoint>& pts, const Eigen::Matrix4f& T,
+                double margin_m, int max_points, int& known, int& free) {
+    if (pts.empty()) return;
+    const int reach = static_cast<int>(std::ceil(margin_m / tree.getResolution() - 1e-9));
+    const std::size_t stride = std::max<std::size_t>(1, pts.size() / std::max(1, max_points));
+    const Eigen::Matrix3f R = T.topLeftCorner<3, 3>();
+    const Eigen::Vector3f t = T.topRightCorner<3, 1>();
+    for (std::size_t i = 0; i < pts.size(); i += stride) {
+        const Eigen::Vector3f q = R * pts[i].getVector3fMap() + t;
+        octomap::OcTreeKey key;
+        if (!tree.coordToKeyChecked(octomap::point3d(q.x(), q.y(), q.z()), key)) continue;
+        const octomap::OcTreeNode* node = tree.search(key);
+        if (node == nullptr) continue;  // unknown: neither side of the argument
+        ++known;
+        if (tree.isNodeOccupied(node)) continue;
+        bool near_surface = false;
+        for (int dx = -reach; dx <= reach && !near_surface; ++dx)
+            for (int dy = -reach; dy <= reach && !near_surface; ++dy)
+                for (int dz = -reach; dz <= reach && !near_surface; ++dz) {
+                    const int kx = key[0] + dx, ky = key[1] + dy, kz = key[2] + dz;
+                    if (kx < 0 || ky < 0 || kz < 0 || kx > 0xFFFF || ky > 0xFFFF || kz > 0xFFFF) continue;
+                    const auto* n = tree.search(octomap::OcTreeKey(static_cast<octomap::key_type>(kx),
+                                                                   static_cast<octomap::key_type>(ky),
+                                                                   static_cast<octomap::key_type>(kz)));
+                    near_surface = n != nullptr && tree.isNodeOccupied(n);
+                }
+        if (!near_surface) ++free;
+    }
+}
+
+}  // namespace
+
+double FreeSpaceCounts::worst_fraction(int min_known) const {
+    double worst = 0.0;
+    if (known >= min_known && known > 0) worst = static_cast<double>(free) / known;
+    if (reverse_known >= min_known && reverse_known > 0)
+        worst = std::max(worst, static_cast<double>(reverse_free) / reverse_known);
+    return worst;
+}
+
+FreeSpaceCounts free_space_counts(const SubmapFeatures& a, const SubmapFeatures& b,
+                                  const Eigen::Matrix4f& T_a_b, double margin_m, int max_points) {
+    FreeSpaceCounts c;
+    if (a.octree && b.icp_cloud && b.icp_cloud->source)
+        count_free(*a.octree, *b.icp_cloud->source, T_a_b, margin_m, max_points, c.known, c.free);
+    if (b.octree && a.icp_cloud && a.icp_cloud->source) {
+        const Eigen::Matrix4f T_b_a = T_a_b.inverse();
+        count_free(*b.octree, *a.icp_cloud->source, T_b_a, margin_m, max_points, c.reverse_known,
+                   c.reverse_free);
+    }
+    return c;
 }
 
 std::size_t icp_cloud_size(const SubmapFeatures& f) {
@@ -466,6 +524,7 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
         }
         f->icp_cloud = icp;
     }
+    if (settings.max_free_space_fraction > 0) f->octree = submap.octree;
 
     f->status = FeatureStatus::kOk;
     f->duration_s = seconds_since(t0);

@@ -41,6 +41,8 @@ struct SubmapFeatures {
     std::vector<Eigen::Matrix3f> lrfs;  // rows: x, y, z axes in the submap frame
     Eigen::Vector3f keypoint_centroid = Eigen::Vector3f::Zero();
     std::shared_ptr<const IcpCloud> icp_cloud;
+    // The submap's OctoMap, kept only for the free-space check (max_free_space_fraction > 0).
+    std::shared_ptr<const octomap::OcTree> octree;
 
     // Counters.
     int points_in = 0;
@@ -64,6 +66,20 @@ std::shared_ptr<const SubmapFeatures> compute_features(const dataset::Submap& su
                                                        const MatcherParams& params,
                                                        const MatcherSettings& settings,
                                                        const Deadline& deadline = {});
+
+// The free-space check of a match (MatcherSettings::max_free_space_fraction): of b's ICP source
+// points placed in a by T_a_b, how many fall in a's known space and how many of those in free
+// space with no occupied cell within margin_m; `reverse` the same for a's points in b. At most
+// max_points points per direction (evenly strided). Zero counts where a feature set has no
+// octree or ICP cloud.
+struct FreeSpaceCounts {
+    int known = 0, free = 0;                  // b in a
+    int reverse_known = 0, reverse_free = 0;  // a in b
+    // The larger of the two directions' free / known among those with at least min_known points.
+    double worst_fraction(int min_known) const;
+};
+FreeSpaceCounts free_space_counts(const SubmapFeatures& a, const SubmapFeatures& b,
+                                  const Eigen::Matrix4f& T_a_b, double margin_m, int max_points);
 
 // Points of the ICP cloud (for tests and diagnostics).
 std::size_t icp_cloud_size(const SubmapFeatures& features);

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <thread>
 
 #include "matcher/descriptor_matching.hpp"
@@ -180,6 +181,19 @@ PairResult match_features(const SubmapFeatures& a, const SubmapFeatures& b,
     if (settings.min_icp_inlier_fraction > 0 && settings.icp_enabled &&
         r.icp_inlier_fraction < settings.min_icp_inlier_fraction)
         return finish(r, MatchStatus::kNoMatch, "too little overlap after ICP", t0);
+    if (settings.max_free_space_fraction > 0) {
+        // 400 points a direction decide a fraction to a few hundredths; 20 known ones at least,
+        // or the submaps saw too little of each other's space to argue either way.
+        const auto fs = free_space_counts(a, b, T, settings.free_space_margin_m, 400);
+        const double worst = fs.worst_fraction(20);
+        if (worst > settings.max_free_space_fraction) {
+            char text[160];
+            std::snprintf(text, sizeof text,
+                          "free space contradicts the match (%.2f of the points in known space; b in a %d/%d, a in b %d/%d)",
+                          worst, fs.free, fs.known, fs.reverse_free, fs.reverse_known);
+            return finish(r, MatchStatus::kNoMatch, text, t0);
+        }
+    }
     if (settings.max_roll_pitch_rad > 0) {
         const Eigen::Matrix3d R = r.T_a_b.topLeftCorner<3, 3>();
         const double roll = std::atan2(R(2, 1), R(2, 2));

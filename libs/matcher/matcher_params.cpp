@@ -130,7 +130,17 @@ SettingField choice(const char* name, bool per_submap, Enum MatcherSettings::*fi
             }};
 }
 
+SettingField since_revision_4(SettingField f) {
+    f.versioned_at_default = false;
+    return f;
+}
+
 }  // namespace
+
+bool in_version(const SettingField& f, const MatcherSettings& s) {
+    static const MatcherSettings defaults;
+    return f.versioned_at_default || f.get(s) != f.get(defaults);
+}
 
 const std::vector<SettingField>& setting_fields() {
     using S = MatcherSettings;
@@ -169,6 +179,10 @@ const std::vector<SettingField>& setting_fields() {
         real("submap_time_limit_s", false, &S::submap_time_limit_s, 0.001, 1e7),
         real("total_time_limit_s", false, &S::total_time_limit_s, 0.001, 1e7),
         integer("seed", false, &S::seed, 0, 9.007199254740992e15),
+        // Added after revision 4 (see SettingField::versioned_at_default). The check needs the
+        // submaps' OctoMaps, which features keep only when it is on: hence per-submap.
+        since_revision_4(real("max_free_space_fraction", true, &S::max_free_space_fraction, 0, 1)),
+        since_revision_4(real("free_space_margin_m", false, &S::free_space_margin_m, 0, 10)),
     };
     return fields;
 }
@@ -176,7 +190,7 @@ const std::vector<SettingField>& setting_fields() {
 std::string feature_settings_fingerprint(const MatcherSettings& s) {
     std::string out;
     for (const auto& f : setting_fields())
-        if (f.per_submap) out += (out.empty() ? "" : "/") + f.name + "=" + f.get(s);
+        if (f.per_submap && in_version(f, s)) out += (out.empty() ? "" : "/") + f.name + "=" + f.get(s);
     return out;
 }
 

@@ -100,6 +100,14 @@ struct MatcherSettings {
     // Optional overlap check: after ICP, at least this fraction of b's ICP points must lie
     // within the ICP correspondence distance of a. <= 0 disables it (SPEC default).
     double min_icp_inlier_fraction = 0.0;
+    // Optional free-space check (a loop-closure verification the thesis's pipeline lacks): b's
+    // ICP points placed in a by the match, and a's in b, must not lie where the other submap's
+    // OctoMap saw free space with no occupied cell within free_space_margin_m. The match is
+    // rejected when more than this fraction of the points that fall in known space do so (in
+    // either direction). A wrong match lays one submap's rocks into the other's observed air;
+    // consensus and ICP overlap cannot see that ("ground fits ground"). <= 0 disables it.
+    double max_free_space_fraction = 0.0;
+    double free_space_margin_m = 0.1;  // covers a correct match's residual error and the cell size
     // Consensus check (the thesis, §3.2: matchers decide "by thresholding the number of inlier
     // correspondences"): the RANSAC transform must explain at least this many correspondences.
     // On the simulated lab, wrong matches end with 7-38 inliers (median 18) and correct ones
@@ -130,8 +138,13 @@ struct SettingField {
     bool per_submap = false;
     std::function<std::string(MatcherSettings&, const std::string&)> set;  // "" or the error
     std::function<std::string(const MatcherSettings&)> get;                // text `set` takes back exactly
+    // Settings added after matcher code revision 4 are left out of the matcher version and the
+    // feature fingerprint while at their default, so the observations stored before stay valid.
+    bool versioned_at_default = true;
 };
 const std::vector<SettingField>& setting_fields();
+// Whether `f` at its value in `s` is part of the matcher version and feature fingerprint.
+bool in_version(const SettingField& f, const MatcherSettings& s);
 
 // Settings that change per-submap features, as a string for the cache key.
 std::string feature_settings_fingerprint(const MatcherSettings& settings);

@@ -138,6 +138,7 @@ TEST_F(EvaluationTest, EverySettableMatcherSettingChangesTheVersion) {
         {"ransac_threshold_from", {"v_TF", false}}, {"seed", {"7", false}},
         {"surface_points_per_radius", {"5", true}}, {"unknown_samples_per_diameter", {"8", true}},
         {"viewpoint_x", {"1", true}}, {"viewpoint_y", {"1", true}}, {"viewpoint_z", {"1", true}},
+        {"max_free_space_fraction", {"0.2", true}}, {"free_space_margin_m", {"0.2", false}},
     };
     const matcher::MatcherSettings defaults;
     for (const auto& key : matcher::matcher_setting_names()) {
@@ -151,6 +152,19 @@ TEST_F(EvaluationTest, EverySettableMatcherSettingChangesTheVersion) {
             << key << (it->second.second ? " does not change" : " changes") << " the feature fingerprint";
     }
     EXPECT_EQ(matcher::matcher_setting_names().size(), other_value.size());
+}
+
+// Stores outlive code: a setting added after revision 4 must not change the version of the
+// settings that existed before (at its default it is left out), or every stored observation
+// would be recomputed. The pinned value is what the quick kit's runs (pair and total time limits
+// 20 s and 600 s, all else default) recorded in run.yaml before the free-space check existed.
+TEST_F(EvaluationTest, NewSettingsAtTheirDefaultKeepTheVersionOfEarlierStores) {
+    matcher::MatcherSettings kit;
+    ASSERT_EQ(matcher::set_matcher_settings(kit, {"pair_time_limit_s=20", "total_time_limit_s=600"}), "");
+    EXPECT_EQ(matcher_version(kit), "4-acf16e16");
+    matcher::MatcherSettings s = kit;
+    ASSERT_EQ(matcher::set_matcher_setting(s, "max_free_space_fraction", "0.05"), "");
+    EXPECT_NE(matcher_version(s), matcher_version(kit));
 }
 
 // What a task carries: every setting as text, which gives back the same matcher on any worker.

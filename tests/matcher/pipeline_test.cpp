@@ -202,6 +202,56 @@ TEST_F(ScenePair, UnknownSpaceFilterRemovesAllKeypointsForX1D) {
     EXPECT_EQ(h->keypoints_unknown, h->keypoints_voxel);
 }
 
+// An OctoMap as a down-looking sensor would make of `s`'s scene (the submap frame is gravity
+// aligned here): every point occupied, the air up to 1 m above it free.
+std::shared_ptr<octomap::OcTree> seen_from_above(const dataset::Submap& s) {
+    auto tree = std::make_shared<octomap::OcTree>(0.05);
+    for (const auto& p : s.cloud)
+        for (float z = 0.1f; z <= 1.f; z += 0.05f) tree->updateNode(octomap::point3d(p.x, p.y, p.z + z), false);
+    for (const auto& p : s.cloud) tree->updateNode(octomap::point3d(p.x, p.y, p.z), true);
+    return tree;
+}
+
+TEST_F(ScenePair, FreeSpaceCheckKeepsTheRightMatchAndRejectsRocksInTheAir) {
+    dataset::Submap a = *a_, b = *b_;
+    a.octree = seen_from_above(a);
+    b.octree = seen_from_above(b);
+    MatcherSettings s = fast_settings();
+    s.max_free_space_fraction = 0.05;
+    Matcher m(s);
+    const MatcherParams params;
+    const auto fa = m.features(a, params), fb = m.features(b, params);
+    ASSERT_TRUE(fa->octree && fb->octree) << "features keep the OctoMap when the check is on";
+    EXPECT_FALSE(Matcher(fast_settings()).features(a, params)->octree) << "and only then";
+
+    // The true transform: b's points lie on a's surfaces, nothing in a's air.
+    const Eigen::Matrix4f T = reference().cast<float>();
+    const auto right = free_space_counts(*fa, *fb, T, s.free_space_margin_m, 400);
+    EXPECT_GT(right.known, 50);
+    EXPECT_GT(right.reverse_known, 50);
+    EXPECT_LT(right.worst_fraction(20), 0.02);
+    // Lifted by 0.4 m (a rock's height), b floats in a's observed air.
+    Eigen::Matrix4f lifted = T;
+    lifted(2, 3) += 0.4f;
+    const auto wrong = free_space_counts(*fa, *fb, lifted, s.free_space_margin_m, 400);
+    EXPECT_GT(wrong.worst_fraction(20), 0.5);
+    // Without an octree there is nothing to argue with.
+    EXPECT_EQ(free_space_counts(*Matcher(fast_settings()).features(a, params), *fb, lifted, 0.1, 400).known, 0);
+
+    const auto ok = m.match(a, b, params);
+    EXPECT_EQ(ok.status, MatchStatus::kOk) << ok.reason;
+
+    // The same pair, but b's OctoMap saw another scene (rocks elsewhere): a's rocks, placed in b
+    // by the match, stand in b's free air, and the match is rejected by name.
+    dataset::Submap b_elsewhere = b;
+    b_elsewhere.id = "scene/b_elsewhere";  // features are cached by submap id
+    b_elsewhere.octree = seen_from_above(make_scene_submap("scene/other", 1.5f, 6.f, 6.f, pose(0.5f, 2.f, 1.f), 99));
+    const auto rejected = m.match(a, b_elsewhere, params);
+    EXPECT_EQ(rejected.status, MatchStatus::kNoMatch);
+    EXPECT_FALSE(rejected.matched);
+    EXPECT_NE(rejected.reason.find("free space contradicts the match"), std::string::npos) << rejected.reason;
+}
+
 TEST(PipelineFailures, EmptyTinyAndDegenerateInputs) {
     Matcher m(fast_settings());
     dataset::Submap empty;
