@@ -537,6 +537,37 @@ TEST_F(FidelityTest, AResumedRunJudgesTheSubsetAsTheUninterruptedOne) {
     }
 }
 
+// A stopped proposal's estimate is the best's whole-view p plus the difference on the subset:
+// on a subset easier than the view, its own p there would rate it above the best it lost to.
+TEST_F(FidelityTest, AStoppedProposalIsToldBelowTheBestEvenOnAnEasySubset) {
+    auto e = load("fidelity: {subset: 4}\nbudget: {evaluations: 5}\n");
+    auto run = make_mf(e);
+    const auto start = run.ask(1, 0.0).at(0);
+    // The best matched exactly the subset's pairs (every 4th) and nothing else.
+    auto best_reply = answer_n(start, kView, 0);
+    for (std::size_t i = 0; i < kView; ++i) best_reply.pairs[i].matched = i % 4 == 0;
+    tuning::EvaluationRecord best;
+    ASSERT_EQ(run.tell(best_reply, 1.0, &best), ReplyOutcome::kAccepted);
+
+    const auto r = run.ask(1, 2.0).at(0);
+    ASSERT_EQ(r.view, "complete/4");
+    const auto reply = answer_n(r, kSubset, 40, 4);
+    const auto mine = outcomes(reply.pairs), theirs = outcomes(best_reply.pairs);
+    const measure::MeasureSettings full{e.e_star, run.summary().m_star, e.w_v};
+    const std::vector<double> ratings(40, kRating);
+    // Preconditions of the case: its own extrapolated p is above the best's, yet it lost on the pairs.
+    ASSERT_GT(measure::extrapolate(ratings, kSubset, kView, full, 0).p, best.p);
+    const double d = measure::paired_difference(mine, theirs, kView, full, 0).difference;
+    ASSERT_LT(d, 0);
+
+    tuning::EvaluationRecord rec;
+    ASSERT_EQ(run.tell(reply, 3.0, &rec), ReplyOutcome::kAccepted);
+    EXPECT_EQ(rec.fidelity, 4);
+    EXPECT_LT(rec.p, best.p);
+    EXPECT_NEAR(rec.p, best.p + d, 1e-12);
+    EXPECT_EQ(rec.m, 40u) << "m, v and eps stay the subset's own";
+}
+
 TEST_F(FidelityTest, ASubsetEstimateIsNeverTheBestWhateverItsP) {
     auto e = load();
     std::vector<experiment::EvaluationRecord> records(3);
