@@ -104,27 +104,28 @@ bool TuningRun::subset_passes(const Reply& reply, EvaluationRecord& rec) const {
     if (summary_.best < 0) return true;
     const EvaluationRecord& best = summary_.evaluations[static_cast<std::size_t>(summary_.best)];
     bool passes = false;
-    double estimate = x.p;
-    if (const auto it = subset_outcomes_.find(summary_.best); it != subset_outcomes_.end()) {
+    const auto it = subset_outcomes_.find(summary_.best);
+    const bool paired = it != subset_outcomes_.end();
+    if (paired) {
         const auto d = measure::paired_difference(outcomes, it->second, f.view_pairs, full, experiment_.fidelity_z,
                                                   experiment::objective(experiment_, 1.0, rec.pair_s),
                                                   experiment::objective(experiment_, 1.0, best.pair_s));
         passes = d.upper >= 0;
-        // The estimate the model is told: the best's whole-view p plus the difference on the same
-        // pairs. The subset's own p carries how easy those pairs are — the same for every set —
-        // and told as a level it rated stopped proposals above the best (26 of 77 on one moon run).
-        // A set that matched nothing there keeps p = 0: no evidence of a match, and the
-        // dead-region model must see it dead.
-        if (!ratings.empty()) {
-            const double dp = measure::paired_difference(outcomes, it->second, f.view_pairs, full, 0).difference;
-            estimate = std::clamp(best.p + dp, 0.0, 1.0);
-        }
     } else {
         const double upper = experiment::objective(experiment_, x.p_upper, rec.pair_s);
         passes = !experiment::better(experiment_, experiment::record_objective(experiment_, best), upper);
     }
     if (passes) return true;
-    rec.p = estimate;
+    // The estimate the model is told: the best's whole-view p plus the difference on the same
+    // pairs. The subset's own p carries how easy those pairs are — the same for every set —
+    // and told as a level it rated stopped proposals above the best (26 of 77 on one moon run).
+    // A set that matched nothing there keeps p = 0: no evidence of a match, and the
+    // dead-region model must see it dead.
+    rec.p = x.p;
+    if (paired && !ratings.empty()) {
+        const double dp = measure::paired_difference(outcomes, it->second, f.view_pairs, full, 0).difference;
+        rec.p = std::clamp(best.p + dp, 0.0, 1.0);
+    }
     rec.v = x.v;
     rec.eps = x.eps;
     rec.m = ratings.size();
