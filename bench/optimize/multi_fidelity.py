@@ -10,7 +10,10 @@ Each directory is a repeated `maptune run` (one seed-<n> directory per seed). Pe
 - when the multi-fidelity run first reached that p with a whole-view evaluation (or that it did
   not, with its own best), the ratio of the two times;
 - how many of its evaluations stopped on the subset, and its total time;
-- the held-out p (validation.csv, set "best") of both runs' final best.
+- the held-out p (validation.csv) of both runs' final best (set "best", what best_params.yaml
+  holds) and of the model's predicted best (set "predicted", predicted_best.yaml).
+The summary also gives the median time ratio over all seeds (a seed that never reached the target
+counts as above any ratio) and the median held-out differences.
 """
 import argparse
 import csv
@@ -33,13 +36,13 @@ def read_trials(run_dir):
     return out
 
 
-def held_out(run_dir, label):
+def held_out(run_dir, label, which="best"):
     path = os.path.join(run_dir, "validation.csv")
     if not os.path.exists(path):
         return None
     with open(path) as f:
         for r in csv.DictReader(f):
-            if r["set"] == "best" and (label is None or r["target"] == label):
+            if r["set"] == which and (label is None or r["target"] == label):
                 return float(r["p"])
     return None
 
@@ -92,6 +95,8 @@ def main():
             "total_multi": multi[-1]["elapsed_s"],
             "heldout_full": held_out(os.path.join(a.full, seed), a.target),
             "heldout_multi": held_out(multi_dir, a.target),
+            "predicted_full": held_out(os.path.join(a.full, seed), a.target, "predicted"),
+            "predicted_multi": held_out(multi_dir, a.target, "predicted"),
         })
 
     def f(v, d=3):
@@ -99,18 +104,32 @@ def main():
 
     header = ["seed", "full: best p", "full: reached at s", "multi: reached at s", "time ratio",
               "multi: best p", "stopped on subset", "full: total s", "multi: total s",
-              "held-out p full", "held-out p multi", "held-out Δ"]
+              "held-out p full", "held-out p multi", "held-out Δ", "predicted best: held-out Δ"]
+
+    def diff(a_, b_):
+        return None if None in (a_, b_) else a_ - b_
+
     lines = []
     for r in rows:
-        delta = (r["heldout_multi"] - r["heldout_full"]) if None not in (r["heldout_multi"], r["heldout_full"]) else None
+        delta = diff(r["heldout_multi"], r["heldout_full"])
+        r["delta"], r["delta_predicted"] = delta, diff(r["predicted_multi"], r["predicted_full"])
         lines.append([r["seed"], f(r["target_p"], 4), f(r["t_full"], 0),
                       f(r["t_multi"], 0) if r["t_multi"] is not None else "not reached",
                       f(r["ratio"], 2), f(r["multi_best"], 4), f"{r['stopped']}/{r['evaluations']}",
                       f(r["total_full"], 0), f(r["total_multi"], 0), f(r["heldout_full"], 4),
-                      f(r["heldout_multi"], 4), f(delta, 4)])
+                      f(r["heldout_multi"], 4), f(delta, 4), f(r["delta_predicted"], 4)])
     ratios = [r["ratio"] for r in rows if r["ratio"] is not None]
     summary = (f"median time ratio {statistics.median(ratios):.2f} over {len(ratios)} of {len(rows)} seeds that reached the target"
                if ratios else "no seed reached the full-fidelity best")
+    # Over all seeds, a seed that never reached the target ranks above every ratio.
+    ranked = sorted(r["ratio"] if r["ratio"] is not None else float("inf") for r in rows)
+    overall = statistics.median(ranked)
+    summary += (f"; over all {len(rows)} seeds: median ratio {'not reached' if overall == float('inf') else f'{overall:.2f}'}, "
+                f"{sum(1 for v in ranked if v <= 0.5)} of {len(rows)} at most 0.5")
+    for key, name in (("delta", "best observed"), ("delta_predicted", "predicted best")):
+        ds = [r[key] for r in rows if r[key] is not None]
+        if ds:
+            summary += f"; held-out Δ of the {name}: median {statistics.median(ds):+.3f} ({min(ds):+.3f} … {max(ds):+.3f})"
     if a.markdown:
         print("| " + " | ".join(header) + " |")
         print("|" + "---|" * len(header))
