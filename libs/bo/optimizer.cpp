@@ -96,19 +96,53 @@ void weigh_by_live(const AcquisitionContext& ctx, double log_p, double& value) {
     if (ctx.kind == Acquisition::ei) value *= std::exp(log_p);
 }
 
+// The acquisition averaged over models (hyperparameter draws): EI's average, so log-EI's
+// log-mean-exp; UCB's plain average. weights (optional, one per value): d(average)/d(value).
+double average_acquisition(Acquisition kind, const std::vector<double>& v, std::vector<double>* weights) {
+    const auto m = static_cast<double>(v.size());
+    if (weights) weights->assign(v.size(), 1.0 / m);
+    if (kind != Acquisition::log_ei) return std::accumulate(v.begin(), v.end(), 0.0) / m;
+    const double top = *std::max_element(v.begin(), v.end());
+    if (!std::isfinite(top)) return top;
+    double sum = 0;
+    for (double x : v) sum += std::exp(x - top);
+    if (weights) {
+        for (std::size_t k = 0; k < v.size(); ++k) (*weights)[k] = std::exp(v[k] - top) / sum;
+    }
+    return top + std::log(sum / m);
+}
+
+double ensemble_value(const AcquisitionContext& ctx, const std::vector<gp::GaussianProcess>& models,
+                      const Eigen::VectorXd& g, Eigen::VectorXd* grad) {
+    std::vector<double> v(models.size()), w;
+    std::vector<Eigen::VectorXd> gr(models.size());
+    for (std::size_t k = 0; k < models.size(); ++k)
+        v[k] = acquisition_value(ctx, models[k].predict_with_gradient(g), grad ? &gr[k] : nullptr);
+    const double value = average_acquisition(ctx.kind, v, grad ? &w : nullptr);
+    if (grad) {
+        grad->setZero(g.size());
+        if (std::isfinite(value)) {
+            for (std::size_t k = 0; k < models.size(); ++k) *grad += w[k] * gr[k];
+        }
+    }
+    return value;
+}
+
 struct AcquisitionObjective {
     const gp::GaussianProcess& gp;
     const SearchSpace& space;
     const AcquisitionContext& ctx;
     const gp::GaussianProcess* live = nullptr;
     double live_prior = 0.0;
+    const std::vector<gp::GaussianProcess>* ensemble = nullptr;
     double best_value = -std::numeric_limits<double>::infinity();
     Eigen::VectorXd best_u;
 
     double operator()(const Eigen::VectorXd& u, Eigen::VectorXd& grad) {
         const Eigen::VectorXd g = space.to_model_input(u);
         Eigen::VectorXd acq_grad;
-        double value = acquisition_value(ctx, gp.predict_with_gradient(g), &acq_grad);
+        double value = ensemble ? ensemble_value(ctx, *ensemble, g, &acq_grad)
+                                : acquisition_value(ctx, gp.predict_with_gradient(g), &acq_grad);
         if (live && (ctx.kind == Acquisition::log_ei || ctx.kind == Acquisition::ei) && std::isfinite(value)) {
             Eigen::VectorXd lg;
             const double lp = log_live(live->predict_with_gradient(g), live_prior, &lg);
@@ -484,6 +518,9 @@ Optimizer::Model Optimizer::build_model() {
             hp_ = model.fit(mix(options_.seed, 1000 + nu)).hyperparameters;
         }
         last_fit_n_ = nu;
+        hp_samples_.clear();
+        if (options_.hyper_samples > 0 && n <= options_.gp.fit.max_points)
+            hp_samples_ = model.sample_hyperparameters(options_.hyper_samples, mix(options_.seed, 5000 + nu));
     }
     if (!cache_ || cache_n_ != nu) {
         cache_ = model;
@@ -510,6 +547,10 @@ Optimizer::Model Optimizer::build_model() {
         m.gp.predict(p.g, mean, var);
         m.gp.append(p.g, mean(0));
         m.incumbent = std::max(m.incumbent, mean(0));
+    }
+    for (const gp::Hyperparameters& h : hp_samples_) {
+        gp::GaussianProcess g = m.gp;
+        if (g.set_hyperparameters(h)) m.ensemble.push_back(std::move(g));
     }
     return m;
 }
@@ -693,6 +734,20 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
     Eigen::VectorXd mean, var;
     model.gp.predict(cand_g, mean, var);
     Eigen::VectorXd acq = acquisition_values(ctx, mean, var);
+    // Only the whole box's proposals average over the draws (the region's refine the fit's model).
+    const bool use_ensemble = !model.ensemble.empty() && !(region_slot(count) && has_success());
+    if (use_ensemble) {
+        std::vector<Eigen::VectorXd> values;
+        for (const gp::GaussianProcess& g : model.ensemble) {
+            g.predict(cand_g, mean, var);
+            values.push_back(acquisition_values(ctx, mean, var));
+        }
+        std::vector<double> at(values.size());
+        for (Eigen::Index i = 0; i < n_total; ++i) {
+            for (std::size_t k = 0; k < values.size(); ++k) at[k] = values[k](i);
+            acq(i) = average_acquisition(ctx.kind, at, nullptr);
+        }
+    }
     if (model.live) {
         Eigen::VectorXd lm, lv;
         model.live->predict(cand_g, lm, lv);
@@ -742,7 +797,7 @@ Eigen::VectorXd Optimizer::maximize_acquisition(const Model& model, std::uint64_
         }
         LBFGSpp::LBFGSBSolver<double> solver(param);
         AcquisitionObjective objective{model.gp, space_, ctx, model.live ? &*model.live : nullptr,
-                                       model.live_prior};
+                                       model.live_prior, use_ensemble ? &model.ensemble : nullptr};
         Eigen::VectorXd u = cand_u.col(c);
         double fx = 0.0;
         try {
@@ -801,6 +856,7 @@ std::vector<Proposal> Optimizer::ask(int q) {
             Eigen::VectorXd mean, var;
             model->gp.predict(point.g, mean, var);
             model->gp.append(point.g, mean(0));
+            for (gp::GaussianProcess& g : model->ensemble) g.append(point.g, mean(0));
             model->incumbent = std::max(model->incumbent, mean(0));
         }
         proposal.id = next_id_++;
@@ -926,6 +982,7 @@ void Optimizer::replay(const std::vector<Observation>& history, const std::vecto
     cache_n_ = 0;
     live_hp_ = gp::Hyperparameters();
     live_fit_n_ = 0;
+    hp_samples_.clear();
     for (std::size_t k = 0; k < history.size(); ++k) {
         const std::string origin = k < origins.size() ? origins[k] : "model";
         if (origin == "initial") {

@@ -95,6 +95,13 @@ struct OptimizerOptions {
     double live_max_length_scale = 1.0;
     gp::GpOptions gp;
     std::uint64_t seed = 0;
+    // The whole box's acquisition is averaged over this many draws of the GP's hyperparameters
+    // (Laplace's approximation of their posterior at each refit; EI averaged, as Snoek et al.'s
+    // integrated acquisition) instead of taken under the fitted ones alone, which with few
+    // points can call a dimension irrelevant and stop exploring it. Up to fit.max_points
+    // observations (the posterior is sharp beyond, and each draw costs a factorization per ask).
+    // 0 = the fitted hyperparameters alone. Why 4: BENCHMARKS.md, "Hyperparameter draws".
+    int hyper_samples = 4;
 };
 
 // The model's belief about the best observed location (what a user deploying today should
@@ -196,6 +203,7 @@ class Optimizer {
         gp::GaussianProcess gp;
         double incumbent;  // best internal value incl. fantasies
         std::optional<gp::GaussianProcess> live;  // the dead-region classifier, when in use
+        std::vector<gp::GaussianProcess> ensemble;  // the model under hyperparameter draws
         double live_prior = 0.0;  // its prior mean (label units), added to its predictions
     };
     bool is_dead(const Observation& o) const;
@@ -269,6 +277,7 @@ class Optimizer {
     std::map<std::uint64_t, Point> pending_;
     std::uint64_t next_id_ = 1;
     gp::Hyperparameters hp_;
+    std::vector<gp::Hyperparameters> hp_samples_;  // OptimizerOptions::hyper_samples draws
     std::size_t last_fit_n_ = 0;
     double warp_alpha_ = 0;  // the warping chosen at the last refit (0: identity)
     // The model of the last build (its first cache_n_ observations, no fantasies): the next

@@ -274,7 +274,7 @@ Experiment load_experiment(const std::string& file) {
         const YamlPath p = top.child("optimizer");
         const YAML::Node n = root["optimizer"];
         params::check_keys(n, p, {"acquisition", "ucb_kappa", "initial_points", "seed", "batch", "warping", "search",
-                                  "quadratic_steps", "cholesky", "dead_regions"});
+                                  "quadratic_steps", "hyper_samples", "cholesky", "dead_regions"});
         if (n["dead_regions"].IsDefined()) e.dead_regions = params::read_bool(n["dead_regions"], p.child("dead_regions"));
         if (n["warping"].IsDefined()) {
             e.warping = read_choice(n["warping"], p.child("warping"), {"none", "log", "copula", "automatic"});
@@ -284,6 +284,9 @@ Experiment load_experiment(const std::string& file) {
         }
         if (n["quadratic_steps"].IsDefined()) {
             e.quadratic_steps = params::read_bool(n["quadratic_steps"], p.child("quadratic_steps"));
+        }
+        if (n["hyper_samples"].IsDefined()) {
+            e.hyper_samples = read_int(n["hyper_samples"], p.child("hyper_samples"), 0, 64);
         }
         if (n["cholesky"].IsDefined()) {
             e.cholesky = read_choice(n["cholesky"], p.child("cholesky"), {"eigen", "cholmod"});
@@ -426,6 +429,7 @@ bo::OptimizerOptions optimizer_options(const Experiment& e) {
                : e.search == "trust_region" ? bo::SearchRegion::trust_region
                                             : bo::SearchRegion::alternate;
     o.quadratic_steps = e.quadratic_steps;
+    o.hyper_samples = e.hyper_samples;
     o.gp.backend = e.cholesky == "cholmod" ? gp::CholeskyBackend::cholmod : gp::CholeskyBackend::eigen;
     // The matcher's p = 0 is "no match at all": whole regions of the space are dead (issue 15).
     if (!e.objective && e.dead_regions) o.dead_value = 0.0;

@@ -80,6 +80,7 @@ struct Experiment {
     std::string warping = "automatic";       // none | log | copula | automatic (docs/optimizer.md)
     std::string search = "alternate";        // global | trust_region | alternate
     bool quadratic_steps = true;             // quadratic steps while they pay (docs/optimizer.md)
+    int hyper_samples = 4;                   // hyperparameter draws for the whole box's acquisition
     std::string cholesky = "eigen";          // eigen | cholmod (the GP's factorization)
     bool dead_regions = true;                // model where p = 0 (matcher experiments only)
     std::vector<params::ParameterSet> start_points;  // full sets, e.g. the baseline

@@ -3,6 +3,7 @@
 #include <LBFGSB.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -487,6 +488,53 @@ FitResult GaussianProcess::finish_fit(const FitPlan& plan) {
     result.hyperparameters.low_fidelity_noise = lf ? std::exp(best_theta(dim_ + 2)) : hp_.low_fidelity_noise;
     if (!set_hyperparameters(result.hyperparameters)) set_hyperparameters(hp_);
     return result;
+}
+
+std::vector<Hyperparameters> GaussianProcess::sample_hyperparameters(int count, std::uint64_t seed) const {
+    std::vector<Hyperparameters> out;
+    if (count <= 0 || x_.cols() < 2) return out;
+    const bool lf = has_low_fidelity();
+    const Bounds b = log_bounds(dim_, options_.fit, lf);
+    const Eigen::Index k = dim_ + 2;  // the low-fidelity noise stays fixed
+    Eigen::VectorXd theta(b.lower.size());
+    theta.head(k) = hp_.to_log();
+    if (lf) theta(k) = std::log(std::max(hp_.low_fidelity_noise, options_.fit.min_noise_variance));
+    theta = theta.cwiseMax(b.lower).cwiseMin(b.upper);
+    // Laplace's approximation: the Hessian of the negative log posterior at the fit, by central
+    // differences of its analytic gradient (2k gradients; a sampler would need hundreds of
+    // evaluations, BENCHMARKS.md).
+    NlpWorkspace ws;
+    const Eigen::VectorXd* lfp = lf ? &low_fidelity_ : nullptr;
+    const double h = 1e-3;
+    Eigen::MatrixXd hess(k, k);
+    Eigen::VectorXd gp_plus, gp_minus;
+    for (Eigen::Index i = 0; i < k; ++i) {
+        Eigen::VectorXd t = theta;
+        t(i) = theta(i) + h;
+        neg_log_posterior(x_, y_, t, options_.fit, &gp_plus, options_.backend, ws, lfp);
+        t(i) = theta(i) - h;
+        neg_log_posterior(x_, y_, t, options_.fit, &gp_minus, options_.backend, ws, lfp);
+        hess.col(i) = (gp_plus.head(k) - gp_minus.head(k)) / (2.0 * h);
+    }
+    if (!hess.allFinite()) return out;
+    hess = 0.5 * (hess + hess.transpose());
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(hess);
+    // Curvature at least the length-scale prior's: at a bound or a saddle the fit's curvature
+    // says nothing, and the prior alone bounds how far a draw may stray.
+    const double min_precision = 1.0 / (options_.fit.length_scale_prior_sd * options_.fit.length_scale_prior_sd);
+    const Eigen::VectorXd sd = eig.eigenvalues().cwiseMax(min_precision).cwiseInverse().cwiseSqrt();
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal;
+    for (int c = 0; c < count; ++c) {
+        Eigen::VectorXd z(k);
+        for (Eigen::Index i = 0; i < k; ++i) z(i) = sd(i) * normal(rng);
+        const Eigen::VectorXd t =
+            (theta.head(k) + eig.eigenvectors() * z).cwiseMax(b.lower.head(k)).cwiseMin(b.upper.head(k));
+        Hyperparameters draw = Hyperparameters::from_log(t);
+        draw.low_fidelity_noise = hp_.low_fidelity_noise;
+        out.push_back(draw);
+    }
+    return out;
 }
 
 FitResult GaussianProcess::fit(std::uint64_t seed) { return fit_together({this}, {seed}).front(); }

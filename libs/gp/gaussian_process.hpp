@@ -134,6 +134,10 @@ class GaussianProcess {
     // equals the model's own fit.
     static std::vector<FitResult> fit_together(const std::vector<GaussianProcess*>& models,
                                                const std::vector<std::uint64_t>& seeds);
+    // `count` draws from Laplace's approximation of the hyperparameters' posterior (log space)
+    // around the current hyperparameters, which should be the fit's; the low-fidelity noise
+    // stays fixed. Empty with fewer than two points or a non-finite curvature.
+    std::vector<Hyperparameters> sample_hyperparameters(int count, std::uint64_t seed) const;
 
     // Posterior mean and latent variance at the columns of xs (d×m), in the caller's units.
     // With a dense factor (Eigen backend) each point's result depends only on that point (not

@@ -61,6 +61,7 @@ std::string write_black_box_experiment(const fs::path& run_dir, const BlackBoxSp
     out << YAML::Key << "warping" << YAML::Value << spec.warping;
     out << YAML::Key << "search" << YAML::Value << spec.search;
     out << YAML::Key << "quadratic_steps" << YAML::Value << spec.quadratic_steps;
+    out << YAML::Key << "hyper_samples" << YAML::Value << spec.hyper_samples;
     out << YAML::Key << "cholesky" << YAML::Value << spec.cholesky;
     out << YAML::EndMap;
     std::vector<std::pair<fs::path, std::string>> starts;

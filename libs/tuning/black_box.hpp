@@ -31,6 +31,7 @@ struct BlackBoxSpec {
     int initial_points = 0;
     std::string warping = "automatic", search = "alternate", cholesky = "eigen";
     bool quadratic_steps = true;
+    int hyper_samples = 4;
     std::vector<std::string> start_points;  // parameter set YAML files
 };
 

@@ -34,6 +34,7 @@ struct BoBenchOptions {
     std::string warping = "automatic";
     std::string search = "alternate";
     bool quadratic_steps = true;
+    int hyper_samples = 4;
     int initial_points = 0;
     int threads = 0;
     bool timing = false;
@@ -126,6 +127,7 @@ int run_bo_bench(const BoBenchOptions& o) {
                                      : o.search == "trust_region" ? bo::SearchRegion::trust_region
                                                                   : bo::SearchRegion::alternate;
                     options.quadratic_steps = o.quadratic_steps;
+                    options.hyper_samples = o.hyper_samples;
                     options.gp.threads = o.threads;
                     std::vector<bo::RegretRun> runs;
                     for (int s = 0; s < o.seeds; ++s) {
@@ -190,6 +192,7 @@ int run_bo_bench(const BoBenchOptions& o) {
         bo::OptimizerOptions options;
         options.candidates = o.candidates;
         options.gp.threads = o.threads;
+        options.hyper_samples = o.hyper_samples;
         for (int n : {100, 1000}) {
             std::cerr << "ask timing n=" << n << "\n";
             // Seed 0's rows as always; with --timing-seeds, the spread over other histories and
@@ -322,6 +325,9 @@ void add_bo_bench_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--quadratic-steps", opt->quadratic_steps,
                     "every 4th proposal, while such steps improve the best as often as the trust region's others, the "
                     "maximizer there of a quadratic fitted to all live values: true | false (default: true)");
+    cmd->add_option("--hyper-samples", opt->hyper_samples,
+                    "hyperparameter draws (Laplace's approximation) over which the whole box's acquisition is averaged, 0..64; 0 = the fitted ones alone (default: 4)")
+        ->check(CLI::Range(0, 64));
     cmd->add_option("--threads", opt->threads,
                     "threads inside the GP's batched prediction and fit and the acquisition "
                     "polish, 0..64; 0 = the hardware's, at most 4 (default: 0)")

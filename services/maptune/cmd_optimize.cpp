@@ -98,6 +98,9 @@ void add_optimize_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--quadratic-steps", o->spec.quadratic_steps,
                     "every 4th proposal, while such steps improve the best as often as the trust region's others, the "
                     "maximizer there of a quadratic fitted to all live values: true | false (default: true)");
+    cmd->add_option("--hyper-samples", o->spec.hyper_samples,
+                    "hyperparameter draws (Laplace's approximation) over which the whole box's acquisition is averaged, 0..64; 0 = the fitted ones alone (default: 4)")
+        ->check(CLI::Range(0, 64));
     cmd->add_option("--cholesky", o->spec.cholesky, "GP factorization: eigen | cholmod")
         ->check(CLI::IsMember({"eigen", "cholmod"}));
     cmd->add_option("--initial-points", o->spec.initial_points, "quasi-random design size (0: max(5, d + 1))")

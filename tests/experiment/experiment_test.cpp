@@ -174,6 +174,13 @@ TEST_F(ExperimentTest, DefaultsOptimizeEverythingWithDerivedMStar) {
     EXPECT_FALSE(optimizer_options(load_experiment(write(
                      "name: d\nspace: space.yaml\ndataset: ds\noptimizer: {quadratic_steps: false}\n")))
                      .quadratic_steps);
+    EXPECT_EQ(optimizer_options(e).hyper_samples, 4);
+    EXPECT_EQ(optimizer_options(load_experiment(write(
+                  "name: d\nspace: space.yaml\ndataset: ds\noptimizer: {hyper_samples: 0}\n")))
+                  .hyper_samples,
+              0);
+    EXPECT_THROW(load_experiment(write("name: d\nspace: space.yaml\ndataset: ds\noptimizer: {hyper_samples: -1}\n")),
+                 params::ConfigError);
     ASSERT_TRUE(optimizer_options(e).dead_value.has_value());  // p = 0: no match at all
     EXPECT_EQ(*optimizer_options(e).dead_value, 0.0);
     EXPECT_FALSE(optimizer_options(load_experiment(write(

@@ -597,5 +597,71 @@ INSTANTIATE_TEST_SUITE_P(Functions, NoCollapseTest,
                                                         0.5}),
                          [](const auto& tpi) { return std::string(tpi.param.name); });
 
+// Draws for marginalizing the hyperparameters (bo::OptimizerOptions::hyper_samples) come from
+// Laplace's approximation: centred on the fit, with the inverse curvature of the negative log
+// posterior there as covariance (checked against second differences of its values, not of the
+// gradient the draws use), inside the fit's bounds, the same for the same seed.
+TEST(GaussianProcessTest, HyperparameterDrawsFollowTheCurvatureOfThePosterior) {
+    std::mt19937_64 rng(5);
+    struct Fitted {
+        Eigen::MatrixXd x;
+        Eigen::VectorXd y;
+        GaussianProcess gp{1};
+    };
+    auto fitted = [&](Eigen::Index n) {
+        Fitted out;
+        out.x = uniform_points(1, n, rng);
+        out.y.resize(n);
+        std::normal_distribution<double> noise(0.0, 0.1);  // a noise the fit must find, not a bound
+        for (Eigen::Index i = 0; i < n; ++i) out.y(i) = std::sin(6.0 * out.x(0, i)) + noise(rng);
+        out.gp.set_data(out.x, out.y);
+        out.gp.fit(3);
+        return out;
+    };
+    const Fitted a = fitted(40);
+    const int count = 4000;
+    const std::vector<Hyperparameters> draws = a.gp.sample_hyperparameters(count, 17);
+    ASSERT_EQ(draws.size(), static_cast<std::size_t>(count));
+    EXPECT_EQ(a.gp.sample_hyperparameters(3, 17)[2].length_scales(0), draws[2].length_scales(0));
+
+    const Eigen::VectorXd z = (a.y.array() - a.gp.output_offset()) / a.gp.output_scale();
+    const Eigen::VectorXd theta = a.gp.hyperparameters().to_log();
+    const FitOptions fit_options;
+    auto nlp = [&](const Eigen::VectorXd& t) { return neg_log_posterior(a.x, z, t, fit_options, nullptr); };
+    const double h = 1e-2;
+    Eigen::Matrix3d hess;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            Eigen::VectorXd pp = theta, pm = theta, mp = theta, mm = theta;
+            pp(i) += h, pp(j) += h;
+            pm(i) += h, pm(j) -= h;
+            mp(i) -= h, mp(j) += h;
+            mm(i) -= h, mm(j) -= h;
+            hess(i, j) = (nlp(pp) - nlp(pm) - nlp(mp) + nlp(mm)) / (4.0 * h * h);
+        }
+    }
+    const Eigen::Matrix3d cov = hess.inverse();
+    ASSERT_GT(hess.llt().info() == Eigen::Success, 0);
+    Eigen::MatrixXd t(3, count);
+    for (int c = 0; c < count; ++c) t.col(c) = draws[static_cast<std::size_t>(c)].to_log();
+    const Eigen::Vector3d mean = t.rowwise().mean();
+    const Eigen::MatrixXd centred = t.colwise() - mean;
+    const Eigen::Matrix3d sample_cov = centred * centred.transpose() / (count - 1.0);
+    for (int i = 0; i < 3; ++i) {
+        SCOPED_TRACE(i);
+        EXPECT_NEAR(mean(i), theta(i), 0.1 * std::sqrt(cov(i, i)) + 1e-3);
+        EXPECT_NEAR(std::sqrt(sample_cov(i, i)), std::sqrt(cov(i, i)), 0.1 * std::sqrt(cov(i, i)));
+    }
+
+    // Inside the fit's bounds.
+    const FitOptions& bounds = a.gp.options().fit;
+    for (const Hyperparameters& draw : draws) {
+        EXPECT_GE(draw.length_scales(0), bounds.min_length_scale);
+        EXPECT_LE(draw.length_scales(0), bounds.max_length_scale);
+        EXPECT_GE(draw.noise_variance, bounds.min_noise_variance);
+        EXPECT_LE(draw.noise_variance, bounds.max_noise_variance);
+    }
+}
+
 }  // namespace
 }  // namespace maptune::gp
