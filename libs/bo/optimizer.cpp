@@ -548,11 +548,14 @@ Optimizer::Model Optimizer::build_model() {
         m.gp.append(p.g, mean(0));
         m.incumbent = std::max(m.incumbent, mean(0));
     }
-    for (const gp::Hyperparameters& h : hp_samples_) {
-        gp::GaussianProcess g = m.gp;
-        if (g.set_hyperparameters(h)) m.ensemble.push_back(std::move(g));
-    }
     return m;
+}
+
+void Optimizer::add_draws(Model& model) const {
+    for (const gp::Hyperparameters& h : hp_samples_) {
+        gp::GaussianProcess g = model.gp;
+        if (g.set_hyperparameters(h)) model.ensemble.push_back(std::move(g));
+    }
 }
 
 std::optional<PredictedBest> Optimizer::predicted_best() const {
@@ -847,6 +850,7 @@ std::vector<Proposal> Optimizer::ask(int q) {
             // Seeded by the number of points so far, so a restored optimizer draws the same
             // candidates.
             const auto key = static_cast<std::uint64_t>(observations_.size() + pending_.size());
+            if (model->ensemble.empty() && !region_slot(key)) add_draws(*model);
             bool quadratic = false;
             point = make_point(maximize_acquisition(*model, mix(options_.seed, 2 * key + 11), quadratic));
             proposal.origin = quadratic ? "quadratic" : "model";

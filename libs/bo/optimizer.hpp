@@ -234,6 +234,9 @@ class Optimizer {
     // value is the same to a model, and the quasi-random design goes on.
     bool has_success() const;
     Model build_model();
+    // The model under each hyperparameter draw (hyper_samples), fantasies included; built only
+    // for a whole-box proposal, the one place that uses it.
+    void add_draws(Model& model) const;
     // Model inputs and internal values of every observation (failures at the worst value)
     // and the best internal value.
     // `raw` (when given) receives the values before any warping.

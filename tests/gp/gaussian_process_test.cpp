@@ -603,31 +603,23 @@ INSTANTIATE_TEST_SUITE_P(Functions, NoCollapseTest,
 // gradient the draws use), inside the fit's bounds, the same for the same seed.
 TEST(GaussianProcessTest, HyperparameterDrawsFollowTheCurvatureOfThePosterior) {
     std::mt19937_64 rng(5);
-    struct Fitted {
-        Eigen::MatrixXd x;
-        Eigen::VectorXd y;
-        GaussianProcess gp{1};
-    };
-    auto fitted = [&](Eigen::Index n) {
-        Fitted out;
-        out.x = uniform_points(1, n, rng);
-        out.y.resize(n);
-        std::normal_distribution<double> noise(0.0, 0.1);  // a noise the fit must find, not a bound
-        for (Eigen::Index i = 0; i < n; ++i) out.y(i) = std::sin(6.0 * out.x(0, i)) + noise(rng);
-        out.gp.set_data(out.x, out.y);
-        out.gp.fit(3);
-        return out;
-    };
-    const Fitted a = fitted(40);
+    const Eigen::Index n = 40;
+    const Eigen::MatrixXd x = uniform_points(1, n, rng);
+    Eigen::VectorXd y(n);
+    std::normal_distribution<double> noise(0.0, 0.1);  // a noise the fit must find, not a bound
+    for (Eigen::Index i = 0; i < n; ++i) y(i) = std::sin(6.0 * x(0, i)) + noise(rng);
+    GaussianProcess gp(1);
+    gp.set_data(x, y);
+    gp.fit(3);
     const int count = 4000;
-    const std::vector<Hyperparameters> draws = a.gp.sample_hyperparameters(count, 17);
+    const std::vector<Hyperparameters> draws = gp.sample_hyperparameters(count, 17);
     ASSERT_EQ(draws.size(), static_cast<std::size_t>(count));
-    EXPECT_EQ(a.gp.sample_hyperparameters(3, 17)[2].length_scales(0), draws[2].length_scales(0));
+    EXPECT_EQ(gp.sample_hyperparameters(3, 17)[2].length_scales(0), draws[2].length_scales(0));
 
-    const Eigen::VectorXd z = (a.y.array() - a.gp.output_offset()) / a.gp.output_scale();
-    const Eigen::VectorXd theta = a.gp.hyperparameters().to_log();
+    const Eigen::VectorXd z = (y.array() - gp.output_offset()) / gp.output_scale();
+    const Eigen::VectorXd theta = gp.hyperparameters().to_log();
     const FitOptions fit_options;
-    auto nlp = [&](const Eigen::VectorXd& t) { return neg_log_posterior(a.x, z, t, fit_options, nullptr); };
+    auto nlp = [&](const Eigen::VectorXd& t) { return neg_log_posterior(x, z, t, fit_options, nullptr); };
     const double h = 1e-2;
     Eigen::Matrix3d hess;
     for (int i = 0; i < 3; ++i) {
@@ -640,8 +632,8 @@ TEST(GaussianProcessTest, HyperparameterDrawsFollowTheCurvatureOfThePosterior) {
             hess(i, j) = (nlp(pp) - nlp(pm) - nlp(mp) + nlp(mm)) / (4.0 * h * h);
         }
     }
+    ASSERT_EQ(hess.llt().info(), Eigen::Success);  // a maximum of the posterior
     const Eigen::Matrix3d cov = hess.inverse();
-    ASSERT_GT(hess.llt().info() == Eigen::Success, 0);
     Eigen::MatrixXd t(3, count);
     for (int c = 0; c < count; ++c) t.col(c) = draws[static_cast<std::size_t>(c)].to_log();
     const Eigen::Vector3d mean = t.rowwise().mean();
@@ -654,7 +646,7 @@ TEST(GaussianProcessTest, HyperparameterDrawsFollowTheCurvatureOfThePosterior) {
     }
 
     // Inside the fit's bounds.
-    const FitOptions& bounds = a.gp.options().fit;
+    const FitOptions& bounds = gp.options().fit;
     for (const Hyperparameters& draw : draws) {
         EXPECT_GE(draw.length_scales(0), bounds.min_length_scale);
         EXPECT_LE(draw.length_scales(0), bounds.max_length_scale);
